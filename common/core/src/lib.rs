@@ -1,0 +1,35 @@
+//! Shared foundations of GFS-VO.
+//!
+//! Every algorithm crate stands on these few types:
+//!
+//! - [`Image`] / [`ImageView`]: a size plus a contiguous row-major buffer. Algorithms take
+//!   views so that they read memory they do not own (a decoded file, or a shared-memory
+//!   sample in the pipeline) without copying it.
+//! - [`camera`]: the pinhole model with radial-tangential distortion (k1 k2 p1 p2 k3),
+//!   point undistortion and a precomputed [`camera::UndistortMap`] for whole images.
+//! - [`se3`]: the Lie-group helpers (exp / log / skew) with the one perturbation
+//!   convention used by every optimiser of the project.
+//! - [`ids`]: typed ids, so that a frame id never indexes a map point.
+//!
+//! Conventions (see DESIGN.md): poses are `T_wc` (`world_from_camera`,
+//! `nalgebra::Isometry3<f64>`), camera optical frame x right, y down, z forward;
+//! pixels are (u, v) = (column, row) with pixel centres at integer coordinates;
+//! depth is metres as `f32`, 0.0 = missing.
+//!
+//! ```
+//! use gfs_core::{camera::PinholeCamera, Image};
+//! let cam = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+//! let p = cam.back_project(100.0, 50.0, 2.0);
+//! let uv = cam.project(&p).expect("in front of the camera");
+//! assert!((uv.x - 100.0).abs() < 1e-9 && (uv.y - 50.0).abs() < 1e-9);
+//! let depth: Image<f32> = Image::new(640, 480);
+//! assert_eq!(depth.view().get(3, 4), Some(0.0));
+//! ```
+#![warn(missing_docs)]
+
+pub mod camera;
+pub mod ids;
+mod image;
+pub mod se3;
+
+pub use image::{DepthImage, GrayImage, Image, ImageError, ImageView, RgbImage};

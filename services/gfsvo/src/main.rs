@@ -1,0 +1,2 @@
+//! `gfsvo`: the command users type.
+fn main() {}
