@@ -1,2 +1,73 @@
-//! `gfsvo`: the command users type.
-fn main() {}
+//! `gfsvo`: the command users type. Each subcommand is a thin layer over the library
+//! crates in `common/`; `main` calls one fallible function, prints the error once and
+//! turns it into the exit code.
+
+mod bench;
+mod cmd;
+mod config;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Errors of the command line: every library error converts into this.
+pub type CliError = Box<dyn std::error::Error + Send + Sync>;
+/// Result of a subcommand.
+pub type CliResult<T = ()> = Result<T, CliError>;
+
+/// GFS-VO: grid-based fast and structural RGB-D visual odometry.
+///
+/// Datasets are folders in TUM RGB-D layout (rgb.txt, depth.txt, optional
+/// associations.txt and groundtruth.txt). The camera config is chosen from the folder
+/// name (fr1/fr2/fr3, 7scenes, icl, synthetic) unless --config names a TOML file; see
+/// the files in configs/ for every parameter.
+#[derive(Parser)]
+#[command(name = "gfsvo", version, about, long_about)]
+struct Cli {
+    /// Log level filter (error, warn, info, debug, trace), or a tracing filter string.
+    #[arg(long, global = true, default_value = "info", env = "GFSVO_LOG")]
+    log: String,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Compare an estimated trajectory with ground truth: ATE and RPE, as evo computes them.
+    Eval(cmd::eval::EvalArgs),
+    /// Render a synthetic RGB-D sequence with ground truth in TUM layout.
+    Synth(cmd::synth::SynthArgs),
+    /// Time one front-end stage over the frames of a dataset (medians over real frames).
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    init_logging(&cli.log);
+    let result = match &cli.command {
+        Command::Eval(args) => cmd::eval::run(args),
+        Command::Synth(args) => cmd::synth::run(args),
+        Command::Bench(command) => bench::run(command),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            let mut source = e.source();
+            while let Some(cause) = source {
+                eprintln!("  caused by: {cause}");
+                source = cause.source();
+            }
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn init_logging(filter: &str) {
+    let filter = tracing_subscriber::EnvFilter::try_new(filter)
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .init();
+}

@@ -1,0 +1,5 @@
+//! gfs-dataset (in progress).
+
+mod depth;
+
+pub use depth::DepthConfig;

@@ -1,0 +1,1 @@
+//! gfs-lines (in progress).

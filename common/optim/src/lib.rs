@@ -1,0 +1,1 @@
+//! gfs-optim (in progress).

@@ -1,0 +1,1 @@
+//! gfs-planes (in progress).

@@ -1,0 +1,1 @@
+//! gfs-points (in progress).

@@ -1,0 +1,1 @@
+//! gfs-synth (in progress).

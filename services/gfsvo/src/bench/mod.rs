@@ -1,0 +1,47 @@
+//! `gfsvo bench STAGE DATASET`: per-step timings of one front-end stage over real frames,
+//! single-threaded, printed as medians / p90 (and as one JSON object with `--json`).
+
+mod lines;
+mod planes;
+mod points;
+pub mod stats;
+
+use crate::CliResult;
+use clap::{Args, Subcommand};
+use std::path::PathBuf;
+
+/// The stage to time.
+#[derive(Subcommand)]
+pub enum BenchCommand {
+    /// ORB: pyramid, FAST + quadtree distribution, orientation + descriptors.
+    Points(BenchArgs),
+    /// Lines: EDLines detection, joining, LBD, grid + homogenisation, 3D lines.
+    Lines(BenchArgs),
+    /// Planes: pixel normals, BFS plane extraction, Manhattan axes.
+    Planes(BenchArgs),
+}
+
+/// Arguments shared by every benchmark.
+#[derive(Args)]
+pub struct BenchArgs {
+    /// Dataset folder in TUM RGB-D layout.
+    pub dataset: PathBuf,
+    /// Config TOML (default: chosen from the dataset folder name).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Number of frames to time (default: all).
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// Print one JSON object instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs one benchmark.
+pub fn run(command: &BenchCommand) -> CliResult {
+    match command {
+        BenchCommand::Points(args) => points::run(args),
+        BenchCommand::Lines(args) => lines::run(args),
+        BenchCommand::Planes(args) => planes::run(args),
+    }
+}

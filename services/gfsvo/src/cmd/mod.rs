@@ -1,0 +1,4 @@
+//! Subcommands other than the benchmarks.
+
+pub mod eval;
+pub mod synth;

@@ -1,0 +1,224 @@
+//! The config file: camera, depth and algorithm parameters, one TOML table per stage.
+//!
+//! The configs of `configs/` are built into the binary, so that `gfsvo` works from any
+//! folder; `--config FILE` reads any other file with the same tables.
+
+use gfs_core::camera::{Camera, CameraConfig};
+use gfs_dataset::DepthConfig;
+use serde::Deserialize;
+use std::path::Path;
+
+/// Everything a run or a benchmark is configured by.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// `[camera]`: intrinsics and distortion of the colour camera.
+    pub camera: CameraConfig,
+    /// `[depth]`: depth scale and valid range.
+    #[serde(default)]
+    pub depth: DepthConfig,
+}
+
+/// The built-in configs, by name (the file stem in `configs/`).
+const BUILT_IN: &[(&str, &str)] = &[
+    ("tum1", include_str!("../../../configs/tum1.toml")),
+    ("tum2", include_str!("../../../configs/tum2.toml")),
+    ("tum3", include_str!("../../../configs/tum3.toml")),
+    ("icl", include_str!("../../../configs/icl.toml")),
+    ("7scenes", include_str!("../../../configs/7scenes.toml")),
+    ("synthetic", include_str!("../../../configs/synthetic.toml")),
+];
+
+/// A config could not be found, read or understood.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("cannot read config {path}: {source}")]
+    Read {
+        /// The file.
+        path: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The TOML is malformed or a field is wrong; the message names line and field.
+    #[error("config {path}: {message}")]
+    Parse {
+        /// The file (or built-in name).
+        path: String,
+        /// What is wrong, and where.
+        message: String,
+    },
+    /// The dataset folder name does not say which camera took it.
+    #[error(
+        "cannot tell the camera of {dataset} from its name (expected fr1/fr2/fr3, freiburg1..3, \
+         7scenes, icl/living_room/office or synthetic in it): pass --config FILE"
+    )]
+    UnknownCamera {
+        /// The dataset folder.
+        dataset: String,
+    },
+}
+
+impl Config {
+    /// Parses a config from TOML text; `origin` names it in errors.
+    ///
+    /// # Errors
+    /// [`ConfigError::Parse`] naming the line and field that is wrong, including a camera
+    /// that cannot exist (non-positive focal length, principal point outside the image).
+    pub fn from_toml(text: &str, origin: &str) -> Result<Self, ConfigError> {
+        let config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            path: origin.to_owned(),
+            message: e.to_string(),
+        })?;
+        config.camera()?;
+        Ok(config)
+    }
+
+    /// The config in `path`, or else the built-in one that the dataset folder name names.
+    ///
+    /// # Errors
+    /// [`ConfigError`] when the file cannot be read or parsed, or no built-in config fits.
+    pub fn load(path: Option<&Path>, dataset: &Path) -> Result<Self, ConfigError> {
+        match path {
+            Some(path) => {
+                let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+                    path: path.display().to_string(),
+                    source,
+                })?;
+                Self::from_toml(&text, &path.display().to_string())
+            }
+            None => {
+                let name = built_in_for(dataset).ok_or_else(|| ConfigError::UnknownCamera {
+                    dataset: dataset.display().to_string(),
+                })?;
+                Self::built_in(name)
+            }
+        }
+    }
+
+    /// A built-in config by name (`tum1`, `tum2`, `tum3`, `icl`, `7scenes`, `synthetic`).
+    ///
+    /// # Errors
+    /// [`ConfigError::Parse`] for an unknown name.
+    pub fn built_in(name: &str) -> Result<Self, ConfigError> {
+        let (_, text) =
+            BUILT_IN
+                .iter()
+                .find(|(n, _)| *n == name)
+                .ok_or_else(|| ConfigError::Parse {
+                    path: name.to_owned(),
+                    message: "no built-in config of that name".to_owned(),
+                })?;
+        Self::from_toml(text, &format!("configs/{name}.toml"))
+    }
+
+    /// The validated camera.
+    ///
+    /// # Errors
+    /// [`ConfigError::Parse`] naming the invalid `camera.*` field.
+    pub fn camera(&self) -> Result<Camera, ConfigError> {
+        Camera::from_config(&self.camera).map_err(|e| ConfigError::Parse {
+            path: "[camera]".to_owned(),
+            message: e.to_string(),
+        })
+    }
+}
+
+/// Which built-in config a dataset folder's name points to, if any. The
+/// `synthetic.toml` marker written by `gfsvo synth` wins over the name.
+fn built_in_for(dataset: &Path) -> Option<&'static str> {
+    if dataset.join("synthetic.toml").is_file() {
+        return Some("synthetic");
+    }
+    let name = dataset
+        .canonicalize()
+        .unwrap_or_else(|_| dataset.to_path_buf());
+    let name = name.file_name()?.to_string_lossy().to_lowercase();
+    let rules: [(&[&str], &str); 6] = [
+        (&["freiburg1", "fr1"], "tum1"),
+        (&["freiburg2", "fr2"], "tum2"),
+        (&["freiburg3", "fr3"], "tum3"),
+        (
+            &[
+                "7scenes",
+                "7-scenes",
+                "redkitchen",
+                "chess",
+                "heads",
+                "pumpkin",
+                "stairs",
+            ],
+            "7scenes",
+        ),
+        (
+            &[
+                "icl",
+                "living_room",
+                "livingroom",
+                "office_room",
+                "lr_kt",
+                "of_kt",
+            ],
+            "icl",
+        ),
+        (&["synth"], "synthetic"),
+    ];
+    rules
+        .iter()
+        .find(|(keys, _)| keys.iter().any(|k| name.contains(k)))
+        .map(|(_, n)| *n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_built_in_config_parses_into_a_valid_camera() {
+        for (name, _) in BUILT_IN {
+            let c = Config::built_in(name).unwrap();
+            assert!(c.camera().is_ok(), "{name}");
+        }
+        assert_eq!(Config::built_in("tum1").unwrap().depth.scale, 5000.0);
+        assert_eq!(Config::built_in("7scenes").unwrap().depth.scale, 1000.0);
+    }
+
+    #[test]
+    fn the_dataset_name_selects_the_camera() {
+        assert_eq!(
+            built_in_for(Path::new("/x/tum_fr1_rpy_head300")),
+            Some("tum1")
+        );
+        assert_eq!(
+            built_in_for(Path::new("rgbd_dataset_freiburg3_long_office")),
+            Some("tum3")
+        );
+        assert_eq!(
+            built_in_for(Path::new("7scenes_redkitchen_head300")),
+            Some("7scenes")
+        );
+        assert_eq!(
+            built_in_for(Path::new("living_room_traj0_frei_png")),
+            Some("icl")
+        );
+        assert_eq!(built_in_for(Path::new("/data/unknown")), None);
+    }
+
+    #[test]
+    fn errors_name_the_field() {
+        let e = Config::from_toml("[camera]\nfx = 1.0\n", "a.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("a.toml") && e.contains("fy"), "{e}");
+        let bad = "[camera]\nfx=-5.0\nfy=5.0\ncx=1.0\ncy=1.0\nwidth=4\nheight=4\n";
+        let e = Config::from_toml(bad, "b.toml").unwrap_err().to_string();
+        assert!(e.contains("camera.fx"), "{e}");
+        let e = Config::from_toml(
+            "[camera]\nfx=5.0\nfy=5.0\ncx=1.0\ncy=1.0\nwidth=4\nheight=4\nzz=1\n",
+            "c.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("zz"), "{e}");
+    }
+}
