@@ -9,6 +9,7 @@
 //!   point undistortion and a precomputed [`camera::UndistortMap`] for whole images.
 //! - [`se3`]: the Lie-group helpers (exp / log / skew) with the one perturbation
 //!   convention used by every optimiser of the project.
+//! - [`align`]: least-squares rigid alignment of 3D point pairs (Kabsch).
 //! - [`ids`]: typed ids, so that a frame id never indexes a map point.
 //!
 //! Conventions (see DESIGN.md): poses are `T_wc` (`world_from_camera`,
@@ -27,6 +28,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod align;
 pub mod camera;
 pub mod ids;
 mod image;
