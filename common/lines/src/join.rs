@@ -1,1 +1,303 @@
-//! (being written)
+//! Joining of broken segments, in the spirit of ELSED (Suárez, Buenaposada & Baumela,
+//! "ELSED: Enhanced line segment drawing", Pattern Recognition 2022): a detector that
+//! stops at every small interruption of an edge (a highlight, an occluding wire, a
+//! texture gap) turns one long line into short pieces, which are worse to match and to
+//! lift to 3D. Two steps, both on the gradients of the detection frame:
+//!
+//! 1. **Extension**: each endpoint is pushed outwards along the segment direction while
+//!    the pixels on the line have a gradient above the detection threshold and oriented
+//!    along the segment normal with the segment's polarity (within the alignment
+//!    tolerance), tolerating a few unsupported pixels in a row (ELSED's jumps).
+//! 2. **Merging**: two segments with the same orientation and polarity (angle below
+//!    `merge_angle_deg`), whose endpoints lie within `merge_offset` px of each other's
+//!    line and whose gap along the line is at most `merge_gap` px, are replaced by the
+//!    total-least-squares line of both (each segment weighted by its length), spanning
+//!    the extreme projections of their endpoints. Repeated until nothing merges.
+//!
+//! Polarity: segments follow the detector convention (brighter on the positive side of
+//! [`crate::Segment::line_coefficients`]), so an edge and an opposite-contrast edge on the
+//! same line (the two sides of a thin bar) never merge.
+
+use gfs_core::ImageView;
+use serde::{Deserialize, Serialize};
+
+use crate::detect::Moments;
+use crate::{DetectedLine, Segment};
+
+/// The `[lines.detect.join]` table: extension and merging of detected segments.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct JoinConfig {
+    /// Unsupported pixels in a row that an extension may step over before it stops.
+    /// Default 2 (ELSED jumps over small interruptions; larger gaps are left to merging).
+    pub extension_gap: usize,
+    /// Angle tolerance (degrees) between the gradient and the segment normal for a pixel
+    /// to support an extension. Default 22.5: the EDLines / LSD alignment precision.
+    pub aligned_angle_deg: f32,
+    /// Maximum angle (degrees) between two segments that may merge. Default 3.0.
+    pub merge_angle_deg: f32,
+    /// Maximum distance (px) of an endpoint to the other segment's line. Default 1.5.
+    pub merge_offset: f32,
+    /// Maximum gap (px) between the two segments along the line. Default 10.0: covers
+    /// 5 px interruptions plus the ~2 px each side that smoothing takes off the ends.
+    pub merge_gap: f32,
+}
+
+impl Default for JoinConfig {
+    fn default() -> Self {
+        Self {
+            extension_gap: 2,
+            aligned_angle_deg: 22.5,
+            merge_angle_deg: 3.0,
+            merge_offset: 1.5,
+            merge_gap: 10.0,
+        }
+    }
+}
+
+/// Gradient maps of the detection frame.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct GradientField<'a> {
+    /// Sobel derivative along u.
+    pub gx: ImageView<'a, i16>,
+    /// Sobel derivative along v.
+    pub gy: ImageView<'a, i16>,
+    /// `|gx| + |gy|`.
+    pub magnitude: ImageView<'a, u16>,
+    /// Edge threshold on `magnitude`.
+    pub threshold: u16,
+}
+
+impl GradientField<'_> {
+    /// Integer pixel nearest to (u, v) when it lies inside the image.
+    #[inline]
+    fn pixel(&self, u: f32, v: f32) -> Option<(usize, usize)> {
+        let (x, y) = (u.round(), v.round());
+        let inside = x >= 0.0
+            && y >= 0.0
+            && (x as usize) < self.magnitude.width()
+            && (y as usize) < self.magnitude.height();
+        inside.then_some((x as usize, y as usize))
+    }
+
+    /// Mean magnitude at the pixels along the segment (one sample per pixel of length).
+    pub(crate) fn mean_magnitude(&self, s: &Segment) -> f32 {
+        let len = s.length();
+        let n = len as usize + 1;
+        let (tu, tv) = if len > 0.0 {
+            ((s.end[0] - s.start[0]) / len, (s.end[1] - s.start[1]) / len)
+        } else {
+            (0.0, 0.0)
+        };
+        let (mut sum, mut count) = (0.0f32, 0usize);
+        for i in 0..n {
+            let t = i as f32;
+            if let Some((x, y)) = self.pixel(s.start[0] + t * tu, s.start[1] + t * tv) {
+                sum += f32::from(self.magnitude.at(x, y));
+                count += 1;
+            }
+        }
+        if count == 0 { 0.0 } else { sum / count as f32 }
+    }
+
+    /// True when pixel (u, v) is an edge pixel whose gradient points along `normal`
+    /// within the tolerance.
+    #[inline]
+    fn supports(&self, u: f32, v: f32, normal: [f32; 2], cos_tolerance: f32) -> bool {
+        let Some((x, y)) = self.pixel(u, v) else {
+            return false;
+        };
+        if self.magnitude.at(x, y) < self.threshold.max(1) {
+            return false;
+        }
+        let (gx, gy) = (f32::from(self.gx.at(x, y)), f32::from(self.gy.at(x, y)));
+        gx * normal[0] + gy * normal[1] >= cos_tolerance * gx.hypot(gy)
+    }
+}
+
+/// Scratch of the joining step, reused every frame.
+#[derive(Debug, Default)]
+pub(crate) struct JoinScratch {
+    alive: Vec<bool>,
+}
+
+/// Extends then merges `lines` in place (see the module doc); longest first on return.
+pub(crate) fn join_lines(
+    config: &JoinConfig,
+    field: &GradientField<'_>,
+    lines: &mut Vec<DetectedLine>,
+    scratch: &mut JoinScratch,
+) {
+    let cos_tolerance = config.aligned_angle_deg.clamp(0.0, 90.0).to_radians().cos();
+    for line in lines.iter_mut() {
+        extend(
+            &mut line.segment,
+            field,
+            config.extension_gap,
+            cos_tolerance,
+        );
+    }
+    merge(config, lines, scratch);
+}
+
+/// Pushes both endpoints of `s` outwards while the gradient supports the line.
+fn extend(s: &mut Segment, field: &GradientField<'_>, max_gap: usize, cos_tolerance: f32) {
+    let len = s.length();
+    if len <= f32::EPSILON || !len.is_finite() {
+        return;
+    }
+    let [a, b, _] = s.line_coefficients();
+    let normal = [a, b];
+    let dir = [(s.end[0] - s.start[0]) / len, (s.end[1] - s.start[1]) / len];
+    let reach = |from: [f32; 2], sign: f32| {
+        let mut last = 0usize;
+        let mut t = 1usize;
+        while t - last <= max_gap + 1 {
+            let step = sign * t as f32;
+            if field.supports(
+                from[0] + step * dir[0],
+                from[1] + step * dir[1],
+                normal,
+                cos_tolerance,
+            ) {
+                last = t;
+            }
+            t += 1;
+        }
+        sign * last as f32
+    };
+    let forward = reach(s.end, 1.0);
+    let backward = reach(s.start, -1.0);
+    s.end = [s.end[0] + forward * dir[0], s.end[1] + forward * dir[1]];
+    s.start = [
+        s.start[0] + backward * dir[0],
+        s.start[1] + backward * dir[1],
+    ];
+}
+
+/// Merges collinear pieces until nothing changes; sorts `lines` longest first.
+fn merge(config: &JoinConfig, lines: &mut Vec<DetectedLine>, scratch: &mut JoinScratch) {
+    lines.sort_by(|p, q| q.segment.length().total_cmp(&p.segment.length()));
+    let alive = &mut scratch.alive;
+    alive.clear();
+    alive.resize(lines.len(), true);
+    let cos_angle = config.merge_angle_deg.clamp(0.0, 90.0).to_radians().cos();
+    for i in 0..lines.len() {
+        if !alive[i] {
+            continue;
+        }
+        let mut changed = true;
+        while changed {
+            changed = false;
+            for j in i + 1..lines.len() {
+                if !alive[j] || !mergeable(config, cos_angle, &lines[i], &lines[j]) {
+                    continue;
+                }
+                lines[i] = merged(&lines[i], &lines[j]);
+                alive[j] = false;
+                changed = true;
+            }
+        }
+    }
+    let mut k = 0;
+    lines.retain(|_| {
+        k += 1;
+        alive[k - 1]
+    });
+    lines.sort_by(|p, q| q.segment.length().total_cmp(&p.segment.length()));
+}
+
+/// Whether `short` continues `long` (see the module doc for the three gates).
+fn mergeable(
+    config: &JoinConfig,
+    cos_angle: f32,
+    long: &DetectedLine,
+    short: &DetectedLine,
+) -> bool {
+    let (p, q) = (&long.segment, &short.segment);
+    let (lp, lq) = (p.length(), q.length());
+    if lp <= f32::EPSILON || lq <= f32::EPSILON {
+        return false;
+    }
+    let dp = [(p.end[0] - p.start[0]) / lp, (p.end[1] - p.start[1]) / lp];
+    let dq = [(q.end[0] - q.start[0]) / lq, (q.end[1] - q.start[1]) / lq];
+    // Oriented directions: same polarity and nearly the same angle.
+    if dp[0] * dq[0] + dp[1] * dq[1] < cos_angle {
+        return false;
+    }
+    let [a, b, c] = p.line_coefficients();
+    let offset = |e: [f32; 2]| (a * e[0] + b * e[1] + c).abs();
+    if offset(q.start) > config.merge_offset || offset(q.end) > config.merge_offset {
+        return false;
+    }
+    let along = |e: [f32; 2]| (e[0] - p.start[0]) * dp[0] + (e[1] - p.start[1]) * dp[1];
+    let (t0, t1) = (along(q.start), along(q.end));
+    let gap = (t0.min(t1) - lp).max(-t0.max(t1));
+    gap <= config.merge_gap
+}
+
+/// The total-least-squares line of two segments (uniform mass along each), spanning the
+/// extreme projections of the four endpoints, oriented like `long`.
+fn merged(long: &DetectedLine, short: &DetectedLine) -> DetectedLine {
+    let mut m = Moments::default();
+    let origin = long.segment.start;
+    for s in [&long.segment, &short.segment] {
+        let len = f64::from(s.length());
+        let mid = s.midpoint();
+        let c = [f64::from(mid[0] - origin[0]), f64::from(mid[1] - origin[1])];
+        let d = [
+            f64::from(s.end[0] - s.start[0]) / len,
+            f64::from(s.end[1] - s.start[1]) / len,
+        ];
+        m.add(c, len);
+        // A uniform segment of length L adds L^3 / 12 d d^T about its centre.
+        let spread = len * len * len / 12.0;
+        m.add_second(
+            spread * d[0] * d[0],
+            spread * d[1] * d[1],
+            spread * d[0] * d[1],
+        );
+    }
+    let Some(line) = m.line() else {
+        return *long;
+    };
+    let sign = {
+        let d = [
+            long.segment.end[0] - long.segment.start[0],
+            long.segment.end[1] - long.segment.start[1],
+        ];
+        if f64::from(d[0]) * line.dir[0] + f64::from(d[1]) * line.dir[1] >= 0.0 {
+            1.0
+        } else {
+            -1.0
+        }
+    };
+    let dir = [sign * line.dir[0], sign * line.dir[1]];
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for e in [
+        long.segment.start,
+        long.segment.end,
+        short.segment.start,
+        short.segment.end,
+    ] {
+        let r = [
+            f64::from(e[0] - origin[0]) - line.centre[0],
+            f64::from(e[1] - origin[1]) - line.centre[1],
+        ];
+        let t = r[0] * dir[0] + r[1] * dir[1];
+        lo = lo.min(t);
+        hi = hi.max(t);
+    }
+    let point = |t: f64| {
+        [
+            (line.centre[0] + t * dir[0]) as f32 + origin[0],
+            (line.centre[1] + t * dir[1]) as f32 + origin[1],
+        ]
+    };
+    let (a, b) = (point(lo), point(hi));
+    let (ll, ls) = (long.segment.length(), short.segment.length());
+    DetectedLine {
+        segment: Segment::new(a[0], a[1], b[0], b[1]),
+        mean_gradient: (long.mean_gradient * ll + short.mean_gradient * ls) / (ll + ls),
+    }
+}

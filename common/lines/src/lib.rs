@@ -14,3 +14,7 @@ pub mod matching;
 mod segment;
 
 pub use segment::{DetectedLine, Segment};
+pub use {
+    detect::{DetectConfig, LineDetector},
+    join::JoinConfig,
+};
