@@ -352,7 +352,12 @@ mod tests {
         let segments: Vec<Segment> = (0..300)
             .map(|_| {
                 // Some endpoints fall outside the 645 x 477 image on purpose.
-                let mut p = || (rng(&mut state) * 760.0 - 60.0, rng(&mut state) * 580.0 - 50.0);
+                let mut p = || {
+                    (
+                        rng(&mut state) * 760.0 - 60.0,
+                        rng(&mut state) * 580.0 - 50.0,
+                    )
+                };
                 let (a, b) = (p(), p());
                 Segment::new(a.0, a.1, b.0, b.1)
             })
@@ -365,7 +370,11 @@ mod tests {
             walked.sort_unstable();
             walked.dedup();
             assert_eq!(walked.len(), n, "segment {i} visits a cell twice");
-            assert_eq!(walked, sampled_cells(&grid, s, (0.0, 1.0)), "segment {i}: {s:?}");
+            assert_eq!(
+                walked,
+                sampled_cells(&grid, s, (0.0, 1.0)),
+                "segment {i}: {s:?}"
+            );
             for c in &walked {
                 assert!(grid.lines_in(*c).contains(&(i as u32)));
             }

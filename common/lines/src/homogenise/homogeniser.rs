@@ -171,7 +171,11 @@ mod tests {
         let mut keep = Vec::new();
         h.select(&lines, &grid, &mut keep);
         // Effective lines: cluster 1 + long line 1 + 8 separate lines = 10.
-        let target = if scheme == HomogeniseScheme::None { 39 } else { 10 };
+        let target = if scheme == HomogeniseScheme::None {
+            39
+        } else {
+            10
+        };
         assert_eq!(h.last_target(), target, "{scheme:?}");
         keep
     }
