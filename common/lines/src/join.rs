@@ -115,6 +115,27 @@ impl GradientField<'_> {
     }
 }
 
+impl GradientField<'_> {
+    /// Gradient component along `normal` at (u, v), bilinear in `gx` and `gy`; 0 outside.
+    fn normal_component(&self, u: f32, v: f32, normal: [f32; 2]) -> f32 {
+        let (w, h) = (self.gx.width(), self.gx.height());
+        if w < 2 || h < 2 || !(u >= 0.0 && v >= 0.0) {
+            return 0.0;
+        }
+        let (x0, y0) = (u.floor() as usize, v.floor() as usize);
+        if x0 + 1 >= w || y0 + 1 >= h {
+            return 0.0;
+        }
+        let (fx, fy) = (u - x0 as f32, v - y0 as f32);
+        let at = |x: usize, y: usize| {
+            f32::from(self.gx.at(x, y)) * normal[0] + f32::from(self.gy.at(x, y)) * normal[1]
+        };
+        let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx;
+        let bottom = at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+}
+
 /// Scratch of the joining step, reused every frame.
 #[derive(Debug, Default)]
 pub(crate) struct JoinScratch {
@@ -136,6 +157,7 @@ pub(crate) fn join_lines(
             config.extension_gap,
             cos_tolerance,
         );
+        refine_endpoints(&mut line.segment, field);
     }
     merge(config, lines, scratch);
 }
@@ -173,6 +195,68 @@ fn extend(s: &mut Segment, field: &GradientField<'_>, max_gap: usize, cos_tolera
         s.start[0] + backward * dir[0],
         s.start[1] + backward * dir[1],
     ];
+}
+
+/// How far (px) [`refine_endpoints`] looks on each side of an endpoint.
+const REFINE_REACH: f32 = 3.0;
+/// Sampling step (px) of [`refine_endpoints`].
+const REFINE_STEP: f32 = 0.5;
+
+/// Moves each endpoint to where the gradient component across the line falls to half of
+/// its mean along the segment. Where a blurred step edge ends (a corner, a T-junction, a
+/// contrast change), its cross-gradient on the line drops from full to zero and passes
+/// half exactly at the end of the step (for a 90-degree corner of a Gaussian-blurred
+/// step, `Phi(0) = 1/2`), so this places endpoints to a fraction of a pixel where pixel
+/// chains stop one or two pixels early or late.
+fn refine_endpoints(s: &mut Segment, field: &GradientField<'_>) {
+    let len = s.length();
+    if len < 4.0 * REFINE_REACH || !len.is_finite() {
+        return;
+    }
+    let [a, b, _] = s.line_coefficients();
+    let normal = [a, b];
+    let dir = [(s.end[0] - s.start[0]) / len, (s.end[1] - s.start[1]) / len];
+    let samples = len as usize;
+    let mut sum = 0.0;
+    for i in 0..samples {
+        let t = i as f32 + 0.5;
+        sum += field.normal_component(s.start[0] + t * dir[0], s.start[1] + t * dir[1], normal);
+    }
+    let half = 0.5 * sum / samples as f32;
+    if half <= 0.0 {
+        return;
+    }
+    // Walks outward from `REFINE_REACH` inside `end` (direction `sign * dir`) and returns
+    // the signed shift of the half-level crossing, if found within the reach.
+    let crossing = |end: [f32; 2], sign: f32| -> Option<f32> {
+        let f = |t: f32| {
+            let t = sign * t;
+            field.normal_component(end[0] + t * dir[0], end[1] + t * dir[1], normal)
+        };
+        let mut t = -REFINE_REACH;
+        let mut prev = f(t);
+        if prev < half {
+            return None;
+        }
+        while t < REFINE_REACH {
+            let next_t = t + REFINE_STEP;
+            let next = f(next_t);
+            if next < half {
+                return Some(sign * (t + REFINE_STEP * (prev - half) / (prev - next)));
+            }
+            t = next_t;
+            prev = next;
+        }
+        None
+    };
+    let end_shift = crossing(s.end, 1.0);
+    let start_shift = crossing(s.start, -1.0);
+    if let Some(d) = end_shift {
+        s.end = [s.end[0] + d * dir[0], s.end[1] + d * dir[1]];
+    }
+    if let Some(d) = start_shift {
+        s.start = [s.start[0] + d * dir[0], s.start[1] + d * dir[1]];
+    }
 }
 
 /// Merges collinear pieces until nothing changes; sorts `lines` longest first.

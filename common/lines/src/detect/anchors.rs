@@ -38,15 +38,20 @@ pub(crate) fn find_anchors(
                 continue;
             }
             let m = mag[i];
-            let anchor = if s == HORIZONTAL {
+            // ED's test: a clear maximum across the edge. A step edge centred between two
+            // pixels gives a plateau of two equal maxima; its first pixel is the anchor.
+            let across = if s == HORIZONTAL { w } else { 1 };
+            let scanned = if s == HORIZONTAL {
                 x % scan == 0
-                    && m >= mag[i - w].saturating_add(anchor_threshold)
-                    && m >= mag[i + w].saturating_add(anchor_threshold)
             } else {
                 row_scanned
-                    && m >= mag[i - 1].saturating_add(anchor_threshold)
-                    && m >= mag[i + 1].saturating_add(anchor_threshold)
             };
+            let (before, after) = (mag[i - across], mag[i + across]);
+            // `after == m >= 1` makes pixel i + across interior, so i + 2 across exists.
+            let anchor = scanned
+                && m >= before.saturating_add(anchor_threshold)
+                && (m >= after.saturating_add(anchor_threshold)
+                    || (m == after && m >= mag[i + 2 * across].saturating_add(anchor_threshold)));
             if anchor {
                 out.push(u64::from(m) << 32 | i as u64);
             }

@@ -1,8 +1,8 @@
 //! Line fitting along an edge chain, EDLines step 5: a least-squares (total least
 //! squares) line is fitted to the first `min_length` pixels; if every pixel lies within
 //! `max_error` of it, the line is extended pixel by pixel, refitting incrementally, while
-//! the next pixel stays within `max_error`; the segment ends there and the search resumes
-//! after it. Endpoints are the projections of the first and last pixel onto the line.
+//! the next pixel stays within `max_error`, then backwards over the pixels the sliding
+//! window skipped; the segment ends there and the search resumes after it. Endpoints are the projections of the first and last pixel onto the line.
 //!
 //! Chain pixels are first moved to the sub-pixel peak of the gradient magnitude across
 //! the edge (parabola through the three magnitudes), which removes the +-0.5 px
@@ -105,6 +105,10 @@ pub(crate) struct Fitter {
 
 impl Fitter {
     /// Fits segments to `chain` and pushes their endpoints `[u0, v0, u1, v1]` to `out`.
+    ///
+    /// A closed chain (its ends are neighbours) is refitted once starting where its first
+    /// segment ended, so that the side holding the chain's arbitrary start is not cut in
+    /// two.
     pub(crate) fn fit_chain(
         &mut self,
         chain: &[u32],
@@ -119,44 +123,15 @@ impl Fitter {
             return;
         }
         self.sub_pixel_points(chain, magnitude, state);
-        let pts = &self.points;
-        let origin = pts[0];
-        let rel = |p: [f64; 2]| [p[0] - origin[0], p[1] - origin[1]];
-        let mut i = 0;
-        while i + min_length <= pts.len() {
-            let mut m = Moments::default();
-            for &p in &pts[i..i + min_length] {
-                m.add(rel(p), 1.0);
-            }
-            let fits = m.line().is_some_and(|line| {
-                pts[i..i + min_length]
-                    .iter()
-                    .all(|&p| line.distance(rel(p)) <= max_error)
-            });
-            if !fits {
-                i += 1;
-                continue;
-            }
-            let mut j = i + min_length;
-            while j < pts.len() {
-                let Some(line) = m.line() else { break };
-                if line.distance(rel(pts[j])) > max_error {
-                    break;
-                }
-                m.add(rel(pts[j]), 1.0);
-                j += 1;
-            }
-            if let Some(line) = m.line() {
-                let a = line.project(rel(pts[i]));
-                let b = line.project(rel(pts[j - 1]));
-                out.push([
-                    (a[0] + origin[0]) as f32,
-                    (a[1] + origin[1]) as f32,
-                    (b[0] + origin[0]) as f32,
-                    (b[1] + origin[1]) as f32,
-                ]);
-            }
-            i = j;
+        let before = out.len();
+        let first_end = fit_points(&self.points, min_length, max_error, out);
+        let w = magnitude.width();
+        let (a, b) = (chain[0] as usize, chain[chain.len() - 1] as usize);
+        let closed = (a % w).abs_diff(b % w) <= 1 && (a / w).abs_diff(b / w) <= 1;
+        if let Some(end) = first_end.filter(|&e| closed && e < self.points.len()) {
+            out.truncate(before);
+            self.points.rotate_left(end);
+            fit_points(&self.points, min_length, max_error, out);
         }
     }
 
@@ -190,6 +165,69 @@ impl Fitter {
             }
         }));
     }
+}
+
+/// The EDLines fit along `pts` (see the module doc); returns the index after the first
+/// segment, if any.
+fn fit_points(
+    pts: &[[f64; 2]],
+    min_length: usize,
+    max_error: f64,
+    out: &mut Vec<[f32; 4]>,
+) -> Option<usize> {
+    let &origin = pts.first()?;
+    let rel = |p: [f64; 2]| [p[0] - origin[0], p[1] - origin[1]];
+    let mut first_end = None;
+    let (mut i, mut floor) = (0, 0);
+    while i + min_length <= pts.len() {
+        let mut m = Moments::default();
+        for &p in &pts[i..i + min_length] {
+            m.add(rel(p), 1.0);
+        }
+        let fits = m.line().is_some_and(|line| {
+            pts[i..i + min_length]
+                .iter()
+                .all(|&p| line.distance(rel(p)) <= max_error)
+        });
+        if !fits {
+            i += 1;
+            continue;
+        }
+        let mut j = i + min_length;
+        while j < pts.len() {
+            let Some(line) = m.line() else { break };
+            if line.distance(rel(pts[j])) > max_error {
+                break;
+            }
+            m.add(rel(pts[j]), 1.0);
+            j += 1;
+        }
+        // The window may have started a few pixels late (the first windows held a
+        // corner): grow backwards too, down to the end of the previous segment.
+        let mut first = i;
+        while first > floor {
+            let Some(line) = m.line() else { break };
+            if line.distance(rel(pts[first - 1])) > max_error {
+                break;
+            }
+            first -= 1;
+            m.add(rel(pts[first]), 1.0);
+        }
+        if let Some(line) = m.line() {
+            let a = line.project(rel(pts[first]));
+            let b = line.project(rel(pts[j - 1]));
+            out.push([
+                (a[0] + origin[0]) as f32,
+                (a[1] + origin[1]) as f32,
+                (b[0] + origin[0]) as f32,
+                (b[1] + origin[1]) as f32,
+            ]);
+            first_end.get_or_insert(j);
+        }
+        i = j;
+        floor = j;
+    }
+    first_end
 }
 
 #[cfg(test)]

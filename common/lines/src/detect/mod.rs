@@ -28,3 +28,8 @@ mod smooth;
 pub use config::DetectConfig;
 pub use detector::LineDetector;
 pub(crate) use fit::Moments;
+
+#[cfg(test)]
+mod test_scenes;
+#[cfg(test)]
+mod tests;

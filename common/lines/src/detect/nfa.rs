@@ -125,8 +125,8 @@ pub(crate) fn validate(
     for s in 0..n {
         let (u, v) = (seg[0] + s as f32 * tu, seg[1] + s as f32 * tv);
         // The 2x2 window whose centre is nearest to (u, v).
-        let x = ((u - 0.5).floor().max(0.0) as usize).min(w - 2);
-        let y = ((v - 0.5).floor().max(0.0) as usize).min(h - 2);
+        let x = ((u - 0.5).round().max(0.0) as usize).min(w - 2);
+        let y = ((v - 0.5).round().max(0.0) as usize).min(h - 2);
         let (r0, r1) = (gray.row(y), gray.row(y + 1));
         let (a, b) = (f32::from(r0[x]), f32::from(r0[x + 1]));
         let (c, d) = (f32::from(r1[x]), f32::from(r1[x + 1]));
