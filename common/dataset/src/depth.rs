@@ -23,3 +23,47 @@ impl Default for DepthConfig {
         }
     }
 }
+
+/// Raw value a Kinect-style sensor writes where it saturates; always missing.
+const RAW_SATURATED: u16 = u16::MAX;
+
+impl DepthConfig {
+    /// Metres for one raw 16-bit value: `raw / scale`, or 0.0 (missing) when the raw value
+    /// is 0 or 65535 or the result lies outside `[min_m, max_m]`.
+    #[inline]
+    pub fn metres(&self, raw: u16) -> f32 {
+        if raw == 0 || raw == RAW_SATURATED {
+            return 0.0;
+        }
+        let m = (f64::from(raw) / self.scale) as f32;
+        if m >= self.min_m && m <= self.max_m {
+            m
+        } else {
+            0.0
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn raw_values_become_metres_or_missing() {
+        let tum = DepthConfig::default();
+        assert_eq!(tum.metres(5000), 1.0);
+        assert_eq!(tum.metres(12_500), 2.5);
+        assert_eq!(tum.metres(0), 0.0);
+        // 0.05 m is closer than min_m = 0.1; 13.1 m is past max_m = 10.
+        assert_eq!(tum.metres(250), 0.0);
+        assert_eq!(tum.metres(65_535), 0.0);
+        let seven_scenes = DepthConfig {
+            scale: 1000.0,
+            min_m: 0.3,
+            max_m: 100.0,
+        };
+        assert_eq!(seven_scenes.metres(1500), 1.5);
+        // 65535 is the 7-Scenes "no depth" marker even when the range would admit 65.5 m.
+        assert_eq!(seven_scenes.metres(65_535), 0.0);
+    }
+}
