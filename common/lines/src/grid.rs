@@ -319,15 +319,7 @@ impl LineGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// splitmix64, for reproducible random segments.
-    fn rng(state: &mut u64) -> f32 {
-        *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = *state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-    }
+    use crate::fixtures::Rng;
 
     fn sampled_cells(grid: &LineGrid, s: &Segment, t_range: (f32, f32)) -> Vec<CellId> {
         let n = 200_000;
@@ -348,16 +340,11 @@ mod tests {
     #[test]
     fn traversal_equals_dense_sampling_on_random_segments() {
         let mut grid = LineGrid::new(&GridConfig { cell_size: 40 });
-        let mut state = 7u64;
+        let mut state = Rng(7);
         let segments: Vec<Segment> = (0..300)
             .map(|_| {
                 // Some endpoints fall outside the 645 x 477 image on purpose.
-                let mut p = || {
-                    (
-                        rng(&mut state) * 760.0 - 60.0,
-                        rng(&mut state) * 580.0 - 50.0,
-                    )
-                };
+                let mut p = || (state.next() * 760.0 - 60.0, state.next() * 580.0 - 50.0);
                 let (a, b) = (p(), p());
                 Segment::new(a.0, a.1, b.0, b.1)
             })
@@ -389,10 +376,10 @@ mod tests {
     fn extension_covers_the_whole_line_through_the_image() {
         let mut grid = LineGrid::new(&GridConfig::default());
         grid.build(640, 480, &[]);
-        let mut state = 3u64;
+        let mut state = Rng(3);
         for _ in 0..100 {
-            let (u, v) = (rng(&mut state) * 640.0, rng(&mut state) * 480.0);
-            let angle = rng(&mut state) * std::f32::consts::TAU;
+            let (u, v) = (state.next() * 640.0, state.next() * 480.0);
+            let angle = state.next() * std::f32::consts::TAU;
             // A 10 px piece; sampling it from -100 to +100 lengths spans the whole image.
             let s = Segment::new(u, v, u + 10.0 * angle.cos(), v + 10.0 * angle.sin());
             let mut cells = Vec::new();

@@ -14,6 +14,13 @@ pub mod matching;
 mod segment;
 
 pub use segment::{DetectedLine, Segment};
+
+pub use extractor::{LineConfig, LineExtractor, LineFeatures};
+pub use lbd::LbdDescriptor;
+pub use lines3d::Line3;
+
+#[cfg(test)]
+mod fixtures;
 pub use {
     detect::{DetectConfig, LineDetector},
     join::JoinConfig,

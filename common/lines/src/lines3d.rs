@@ -380,22 +380,8 @@ fn closest_on_line_to_ray(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fixtures::Rng;
     use gfs_core::Image;
-
-    struct Rng(u64);
-    impl Rng {
-        fn uniform(&mut self) -> f64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn gaussian(&mut self) -> f64 {
-            let (a, b) = (self.uniform().max(1e-12), self.uniform());
-            (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
-        }
-    }
 
     /// A room seen from 1 m above the floor (y down): floor y = 1, back wall z = 4,
     /// left wall x = -1.5, and a box face z = 2 over x in [-0.3, 0.5], y in [-0.2, 0.6].
@@ -535,6 +521,11 @@ mod tests {
                 Vector3::from(line.start).cast::<f64>(),
                 Vector3::from(line.end).cast::<f64>(),
             );
+            if (3..6).contains(&k) {
+                // Occluding box edges take the foreground depth (2 m), not the wall's 4 m.
+                let ok = (s3.z - 2.0).abs() < 0.05 && (e3.z - 2.0).abs() < 0.05;
+                assert!(ok, "box edge {k}: {line:?}");
+            }
             errors.push(angle_deg(&(e3 - s3), &(b - a)));
             end_errors.push((s3 - a).norm().max((e3 - b).norm()));
         }
