@@ -1,1 +1,4 @@
 //! gfs-optim (in progress).
+#![warn(missing_docs)]
+
+pub mod residuals;

@@ -1,0 +1,25 @@
+//! The error terms of the odometry, one per file, each a small struct holding only its
+//! measurement with a `linearize` method returning the error and its Jacobians
+//! (paper section III-C, eq. 6-14).
+//!
+//! Conventions: poses are `camera_from_world` (T_cw) perturbed on the left,
+//! `T ⊕ delta = exp(delta) * T` with `delta = [rho; phi]` (see `gfs_core::se3`), so the
+//! Jacobian of `p_c = T_cw p_w` with respect to `delta` is `[I, -[p_c]x]`. A 3D line is
+//! its two world endpoints `[S, E]` stacked as 6 parameters (S first).
+
+mod direction;
+mod line;
+mod manhattan;
+mod parallel;
+mod perpendicular;
+mod point;
+mod projection;
+
+pub use line::{LineLinearization, LineReprojection};
+pub use manhattan::{ManhattanAxis, ManhattanLinearization};
+pub use parallel::{ParallelLines, ParallelLinearization};
+pub use perpendicular::{PerpendicularLines, PerpendicularLinearization};
+pub use point::{PointLinearization, PointReprojection};
+
+#[cfg(test)]
+pub(crate) mod testing;
