@@ -1,2 +1,70 @@
-//! GFS-VO inter-process plumbing over iceoryx2 (work in progress).
+//! GFS-VO inter-process plumbing over iceoryx2 0.10: topics, message layouts, stage
+//! stamps, run isolation and dead-node cleanup.
+//!
+//! **Why.** The pipeline stages (source, points, lines, planes, tracker, mapper) run as
+//! separate processes that exchange frames and features through shared memory without
+//! serialisation on the hot path (DESIGN.md "Messages"). This crate is everything the
+//! stage services share about that exchange; it holds no algorithm.
+//!
+//! **Model.**
+//! - A *run* ([`IpcRun`]) is one iceoryx2 universe: its own file prefix and root
+//!   directory, so runs and tests never see each other, and [`IpcRun::leftovers`] tells
+//!   whether anything of it is left in `/dev/shm` or `/tmp/iceoryx2`.
+//! - A *topic* is a publish/subscribe service `gfsvo/<run-id>/<topic>` whose payload is a
+//!   slice `[T]` of a plain `#[repr(C)]` type and whose user header is [`MsgHeader`]
+//!   (frame id, capture time, per-stage monotonic stamps). [`TopicPublisher`] and
+//!   [`TopicSubscriber`] are its ends; [`TopicQos`] sizes its queues for the
+//!   [`Mode`] (lockstep / realtime).
+//! - Payloads: a frame is a `[u8]` in the fixed [`frame`] layout read in place as
+//!   [`gfs_core::ImageView`]s; features are `&[T]` of `ZeroCopySend + Copy` structs;
+//!   rare variable messages are bincode ([`codec`]) decoded with a size limit, and a
+//!   malformed one is logged and dropped.
+//! - The same code runs between processes (`iceoryx2::prelude::ipc::Service`) or between
+//!   threads of one process (`iceoryx2::prelude::local::Service`).
+//!
+//! ```
+//! use gfs_core::{ids::FrameId, Image};
+//! use gfs_ipc::{frame_view, FrameImages, IpcRun, Mode, MsgHeader, RunId, Stage, TopicKind,
+//!     TopicPublisher, TopicQos, TopicSubscriber};
+//! use iceoryx2::prelude::local;
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let run = IpcRun::new(RunId::unique("doc")?)?;
+//! let node = run.node::<local::Service>("source")?;
+//! let qos = TopicQos::new(Mode::Lockstep, TopicKind::Frame);
+//! let publisher = TopicPublisher::<local::Service, u8>::create(&run, &node, "frame", &qos, 1 << 16)?;
+//! let subscriber = TopicSubscriber::<local::Service, u8>::create(&run, &node, "frame", &qos)?;
+//!
+//! let (gray, depth) = (Image::<u8>::new(64, 48), Image::<f32>::new(64, 48));
+//! let mut header = MsgHeader::new(FrameId(0), 0.033);
+//! header.mark_finished(Stage::Source);
+//! let images = FrameImages { gray: gray.view(), depth: depth.view(), rgb: None };
+//! publisher.publish_frame(&header, &images)?;
+//!
+//! let sample = subscriber.receive()?.expect("one frame is queued");
+//! let frame = frame_view(&sample)?;
+//! assert_eq!((frame.gray().width(), frame.depth().height()), (64, 48));
+//! assert_eq!(sample.user_header().frame(), FrameId(0));
+//! # Ok(())
+//! # }
+//! ```
 #![warn(missing_docs)]
+
+mod clock;
+pub mod codec;
+mod error;
+pub mod frame;
+mod header;
+mod messages;
+mod qos;
+mod run;
+mod topic;
+
+pub use clock::monotonic_ns;
+pub use codec::{CodecError, MAX_VARIABLE_MESSAGE_BYTES, decode_message, encode_message};
+pub use error::IpcError;
+pub use frame::{FrameError, FrameImages, FrameLayout, FrameView, FrameViewMut};
+pub use header::{MsgHeader, Stage, StageStamp};
+pub use messages::{frame_view, frame_view_mut};
+pub use qos::{Mode, TopicKind, TopicQos};
+pub use run::{CleanupReport, IPC_ROOT, IpcRun, NodeInfo, RUN_ID_ENV, RunId, SHM_DIR};
+pub use topic::{PAYLOAD_ALIGNMENT, TopicPublisher, TopicSample, TopicSampleMut, TopicSubscriber};
