@@ -226,3 +226,159 @@ impl LineExtractor {
         &self.grid
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Segment;
+    use crate::fixtures::{H, Rng, Scene, W, Warp, render};
+    use crate::matching::{LineMatchConfig, LineMatcher, LineSet};
+    use gfs_core::Image;
+
+    fn camera() -> PinholeCamera {
+        PinholeCamera::new(525.0, 525.0, 319.5, 239.5, W, H)
+    }
+
+    fn segments(f: &LineFeatures) -> Vec<Segment> {
+        f.lines.iter().map(|l| l.segment).collect()
+    }
+
+    /// Same physical line: `b` lies within 2 px of the line of `a` (both ways), the
+    /// directions agree within 3 degrees, and the two overlap along the line.
+    fn same_line(a: &Segment, b: &Segment) -> bool {
+        let dist = |s: &Segment, p: [f32; 2]| {
+            let [ca, cb, cc] = s.line_coefficients();
+            (ca * p[0] + cb * p[1] + cc).abs()
+        };
+        let (da, db) = (a.angle(), b.angle());
+        let diff = (da - db).rem_euclid(std::f32::consts::PI);
+        let angle = diff.min(std::f32::consts::PI - diff).to_degrees();
+        let along = |p: [f32; 2]| {
+            let (du, dv) = (a.end[0] - a.start[0], a.end[1] - a.start[1]);
+            ((p[0] - a.start[0]) * du + (p[1] - a.start[1]) * dv) / (du * du + dv * dv)
+        };
+        let (t0, t1) = (along(b.start), along(b.end));
+        let overlap = t0.max(t1) > 0.0 && t0.min(t1) < 1.0;
+        dist(a, b.midpoint()) < 2.0 && dist(b, a.midpoint()) < 2.0 && angle < 3.0 && overlap
+    }
+
+    #[test]
+    fn detected_lines_match_across_a_known_warp() {
+        let mut rng = Rng(5);
+        let scene = Scene::new(&mut rng);
+        let identity = Warp {
+            angle: 0.0,
+            scale: 1.0,
+            t: [0.0, 0.0],
+        };
+        let warp = Warp {
+            angle: 4f32.to_radians(),
+            scale: 1.05,
+            t: [10.0, 6.0],
+        };
+        let (img1, img2) = (
+            render(&scene, &identity, &mut rng),
+            render(&scene, &warp, &mut rng),
+        );
+        let depth = Image::<f32>::new(W, H);
+        // Every line is kept: this measures the descriptor, not the homogenisation
+        // (which may keep different lines of a dense area in the two frames).
+        let mut config = LineConfig::default();
+        config.homogenise.scheme = crate::homogenise::HomogeniseScheme::None;
+        let mut extractor = LineExtractor::new(config);
+        let (mut f1, mut f2) = (LineFeatures::default(), LineFeatures::default());
+        extractor.extract(&img1.view(), &depth.view(), &camera(), &mut f1);
+        let counts = extractor.counts();
+        extractor.extract(&img2.view(), &depth.view(), &camera(), &mut f2);
+        assert!(counts.kept <= counts.detected && counts.kept == f1.len());
+        assert_eq!(
+            (f1.descriptors.len(), f1.lines3d.len()),
+            (f1.len(), f1.len())
+        );
+        // No depth at all: every 3D line is invalid.
+        assert!(f1.lines3d.iter().all(|l| !l.is_valid()));
+        let (s1, s2) = (segments(&f1), segments(&f2));
+        let mut matcher = LineMatcher::new(LineMatchConfig::default());
+        let mut matches = Vec::new();
+        matcher.match_lines(
+            LineSet {
+                segments: &s1,
+                descriptors: &f1.descriptors,
+            },
+            LineSet {
+                segments: &s2,
+                descriptors: &f2.descriptors,
+            },
+            None,
+            &mut matches,
+        );
+        let correct = matches
+            .iter()
+            .filter(|m| {
+                let s = &s1[m.query as usize];
+                let warped = Segment {
+                    start: warp.apply(s.start),
+                    end: warp.apply(s.end),
+                };
+                same_line(&warped, &s2[m.train as usize])
+            })
+            .count();
+        println!(
+            "{} / {} lines detected, {} / {} kept, {} matches, {correct} correct",
+            counts.detected,
+            extractor.counts().detected,
+            f1.len(),
+            f2.len(),
+            matches.len()
+        );
+        assert!(f1.len() >= 100, "{} lines kept", f1.len());
+        assert!(matches.len() * 2 >= f1.len(), "{} matches", matches.len());
+        assert!(correct as f32 >= 0.9 * matches.len() as f32);
+    }
+
+    #[test]
+    fn empty_tiny_constant_and_saturated_images_do_not_panic() {
+        let mut extractor = LineExtractor::new(LineConfig::default());
+        let mut out = LineFeatures::default();
+        let cam = camera();
+        for (w, h, value) in [
+            (0, 0, 0u8),
+            (1, 1, 0),
+            (2, 3, 255),
+            (64, 48, 128),
+            (64, 48, 255),
+        ] {
+            let mut gray = Image::new(w, h);
+            gray.fill(value);
+            let depth = Image::<f32>::new(w, h);
+            extractor.extract(&gray.view(), &depth.view(), &cam, &mut out);
+            assert!(out.is_empty(), "{w}x{h} of {value}");
+            assert_eq!(extractor.counts(), LineCounts::default());
+        }
+        // A depth image of the wrong size gives invalid 3D lines, not a panic.
+        let mut gray = Image::new(160, 120);
+        for v in 30..90 {
+            for u in 40..120 {
+                gray.set(u, v, 255u8);
+            }
+        }
+        let depth = Image::<f32>::new(10, 10);
+        extractor.extract(&gray.view(), &depth.view(), &cam, &mut out);
+        assert_eq!(out.len(), 4);
+        assert!(out.lines3d.iter().all(|l| !l.is_valid()));
+        assert_eq!(extractor.grid().line_count(), 4);
+    }
+
+    #[test]
+    fn config_parses_from_toml_sub_tables() {
+        let text = "[homogenise]\nscheme = \"midpoint\"\nmin_lines = 10\n[grid]\ncell_size = 32\n";
+        let config: LineConfig = toml::from_str(text).unwrap();
+        assert_eq!(config.grid.cell_size, 32);
+        assert_eq!(
+            config.homogenise.scheme,
+            crate::homogenise::HomogeniseScheme::Midpoint
+        );
+        assert_eq!(config.lbd, LbdConfig::default());
+        assert!(toml::from_str::<LineConfig>("[grid]\ncells = 3\n").is_err());
+    }
+}

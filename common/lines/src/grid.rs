@@ -213,9 +213,7 @@ impl LineGrid {
         out.clear();
         cells.clear();
         self.traverse(segment, extension, cells);
-        let n = cells.len();
-        for i in 0..n {
-            let cell = cells[i];
+        for &cell in cells.iter() {
             if radius == 0 {
                 out.extend_from_slice(self.lines_in(cell));
                 continue;

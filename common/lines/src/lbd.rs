@@ -178,8 +178,8 @@ impl LbdExtractor {
         let bands = self.band_descriptors();
         let mut bits = [0u64; 4];
         for (p, &(a, b)) in PAIRS.iter().enumerate() {
-            for k in 0..8 {
-                if bands[a][k] > bands[b][k] {
+            for (k, (x, y)) in bands[a].iter().zip(&bands[b]).enumerate() {
+                if x > y {
                     let bit = 8 * p + k;
                     bits[bit / 64] |= 1 << (bit % 64);
                 }

@@ -178,10 +178,11 @@ impl Line3Estimator {
             t_min = t_min.min(s.t);
             t_max = t_max.max(s.t);
         }
-        let coverage = (t_max - t_min) / len;
+        // Without inliers the span is -inf: no coverage.
+        let coverage = ((t_max - t_min) / len).max(0.0);
         if count < c.min_inliers
             || (count as f32) < c.min_inlier_ratio * self.samples.len() as f32
-            || !(coverage >= c.min_coverage)
+            || coverage < c.min_coverage
         {
             return invalid;
         }

@@ -154,7 +154,7 @@ impl LineMatcher {
             every.extend(0..nt as u32);
         }
         let cos_max = config.max_angle_deg.to_radians().cos();
-        for q in 0..nq {
+        for (q, slot) in forward.iter_mut().enumerate() {
             let list = candidates.map_or(every.as_slice(), |c| c.of(q));
             let (qs, qd) = (&query.segments[q], &query.descriptors[q]);
             let (qdir, qlen) = direction(qs);
@@ -184,7 +184,7 @@ impl LineMatcher {
             }
             let passes_ratio = second == u32::MAX || (best as f32) < config.ratio * second as f32;
             if best <= config.max_distance && passes_ratio {
-                forward[q] = Some((best_t, best));
+                *slot = Some((best_t, best));
             }
         }
         for (q, f) in forward.iter().enumerate() {
