@@ -89,7 +89,7 @@ impl LineReprojection {
 mod tests {
     use super::*;
     use crate::residuals::testing::{
-        assert_jacobian, random_camera_and_pose, random_point_in_view, SplitMix64,
+        SplitMix64, assert_jacobian, random_camera_and_pose, random_point_in_view,
     };
     use gfs_core::se3::retract;
     use nalgebra::Vector6;
@@ -119,7 +119,10 @@ mod tests {
             );
             assert_jacobian(
                 |d: &Vector6<f64>| {
-                    let moved = [line[0] + d.fixed_rows::<3>(0), line[1] + d.fixed_rows::<3>(3)];
+                    let moved = [
+                        line[0] + d.fixed_rows::<3>(0),
+                        line[1] + d.fixed_rows::<3>(3),
+                    ];
                     r.error(&camera, &t_cw, &moved).expect("front")
                 },
                 &lin.d_line,
@@ -137,7 +140,9 @@ mod tests {
             coeffs: Vector3::new(0.0, 1.0, -240.0),
         };
         let line = [Vector3::new(-0.5, 0.0, 2.0), Vector3::new(0.5, 0.1, 2.0)];
-        let e = r.error(&camera, &Isometry3::identity(), &line).expect("front");
+        let e = r
+            .error(&camera, &Isometry3::identity(), &line)
+            .expect("front");
         assert!(e[0].abs() < 1e-12 && (e[1] - 25.0).abs() < 1e-9, "{e}");
     }
 }

@@ -44,7 +44,7 @@ impl ManhattanAxis {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::residuals::testing::{assert_jacobian, SplitMix64};
+    use crate::residuals::testing::{SplitMix64, assert_jacobian};
     use nalgebra::Vector6;
 
     #[test]
@@ -58,7 +58,10 @@ mod tests {
             let lin = term.linearize(&line).expect("non-degenerate");
             assert_jacobian(
                 |d: &Vector6<f64>| {
-                    let moved = [line[0] + d.fixed_rows::<3>(0), line[1] + d.fixed_rows::<3>(3)];
+                    let moved = [
+                        line[0] + d.fixed_rows::<3>(0),
+                        line[1] + d.fixed_rows::<3>(3),
+                    ];
                     term.error(&moved).expect("line")
                 },
                 &lin.d_line,

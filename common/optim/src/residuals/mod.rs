@@ -17,8 +17,8 @@ mod projection;
 
 pub use line::{LineLinearization, LineReprojection};
 pub use manhattan::{ManhattanAxis, ManhattanLinearization};
-pub use parallel::{ParallelLines, ParallelLinearization};
-pub use perpendicular::{PerpendicularLines, PerpendicularLinearization};
+pub use parallel::{ParallelLinearization, ParallelLines};
+pub use perpendicular::{PerpendicularLinearization, PerpendicularLines};
 pub use point::{PointLinearization, PointReprojection};
 
 #[cfg(test)]

@@ -28,7 +28,11 @@ pub struct ParallelLinearization {
 impl ParallelLines {
     /// The error; `None` when a line is degenerate (zero length).
     #[inline]
-    pub fn error(&self, first: &[Vector3<f64>; 2], second: &[Vector3<f64>; 2]) -> Option<Vector3<f64>> {
+    pub fn error(
+        &self,
+        first: &[Vector3<f64>; 2],
+        second: &[Vector3<f64>; 2],
+    ) -> Option<Vector3<f64>> {
         Some(unit_direction(first)?.cross(&unit_direction(second)?))
     }
 
@@ -53,7 +57,7 @@ impl ParallelLines {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::residuals::testing::{assert_jacobian, SplitMix64};
+    use crate::residuals::testing::{SplitMix64, assert_jacobian};
     use nalgebra::Vector6;
 
     #[test]

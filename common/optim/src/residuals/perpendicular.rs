@@ -47,7 +47,7 @@ impl PerpendicularLines {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::residuals::testing::{assert_jacobian, SplitMix64};
+    use crate::residuals::testing::{SplitMix64, assert_jacobian};
     use nalgebra::{Vector1, Vector6};
 
     #[test]
@@ -56,7 +56,9 @@ mod tests {
         for _ in 0..100 {
             let a = [rng.vector3(3.0), rng.vector3(3.0)];
             let b = [rng.vector3(3.0), rng.vector3(3.0)];
-            let lin = PerpendicularLines.linearize(&a, &b).expect("non-degenerate");
+            let lin = PerpendicularLines
+                .linearize(&a, &b)
+                .expect("non-degenerate");
             let moved = |l: &[Vector3<f64>; 2], d: &Vector6<f64>| {
                 [l[0] + d.fixed_rows::<3>(0), l[1] + d.fixed_rows::<3>(3)]
             };

@@ -58,7 +58,7 @@ impl PointReprojection {
 mod tests {
     use super::*;
     use crate::residuals::testing::{
-        assert_jacobian, random_camera_and_pose, random_point_in_view, SplitMix64,
+        SplitMix64, assert_jacobian, random_camera_and_pose, random_point_in_view,
     };
     use gfs_core::se3::retract;
     use nalgebra::{Vector3, Vector6};

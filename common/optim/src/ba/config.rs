@@ -1,0 +1,75 @@
+//! Parameters of the local bundle adjustment.
+
+use crate::robust::{CHI2_1DOF_95, CHI2_2DOF_95};
+use serde::Deserialize;
+
+/// Information of a structural / Manhattan error of one degree, `1 / sin^2(1 deg)`:
+/// a pair 1 degree off costs as much as a 1-sigma pixel error.
+pub const ONE_DEGREE_INFORMATION: f64 = 3282.806_350_011_744;
+
+/// Parameters of [`crate::LocalBundleAdjuster`] (TOML table `[local_ba]`).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BaConfig {
+    /// LM iterations before the outlier check; default 5 (ORB-SLAM2 local BA).
+    pub first_pass_iterations: usize,
+    /// LM iterations on the inliers after it; default 10 (ORB-SLAM2 local BA).
+    pub second_pass_iterations: usize,
+    /// Chi-square threshold (and Huber `sqrt`) of a point observation; default 5.991
+    /// (2 dof, 95 %, ORB-SLAM2).
+    pub point_chi2: f64,
+    /// Chi-square threshold (and Huber `sqrt`) of a line observation; default 5.991 (two
+    /// endpoint distances of the same pixel sigma: 2 dof, 95 %).
+    pub line_chi2: f64,
+    /// Information of a parallel pair's `|sin|`; default 3283 = 1/sin^2(1 deg); 0 turns
+    /// the term off.
+    pub parallel_weight: f64,
+    /// Information of a perpendicular pair's `cos`; default 3283 = 1/sin^2(1 deg); 0
+    /// turns the term off.
+    pub perpendicular_weight: f64,
+    /// Information of a line-axis `|sin|`; default 3283 = 1/sin^2(1 deg); 0 turns the
+    /// term off.
+    pub manhattan_weight: f64,
+    /// Chi-square threshold (and Huber `sqrt`) of a parallel pair; default 5.991 (the
+    /// cross product has 2 dof): about 2.4 deg at the default weight.
+    pub parallel_chi2: f64,
+    /// Chi-square threshold (and Huber `sqrt`) of a perpendicular pair; default 3.841
+    /// (1 dof, 95 %): about 1.96 deg at the default weight.
+    pub perpendicular_chi2: f64,
+    /// Chi-square threshold (and Huber `sqrt`) of a line-axis term; default 5.991.
+    pub manhattan_chi2: f64,
+}
+
+impl Default for BaConfig {
+    fn default() -> Self {
+        Self {
+            first_pass_iterations: 5,
+            second_pass_iterations: 10,
+            point_chi2: CHI2_2DOF_95,
+            line_chi2: CHI2_2DOF_95,
+            parallel_weight: ONE_DEGREE_INFORMATION,
+            perpendicular_weight: ONE_DEGREE_INFORMATION,
+            manhattan_weight: ONE_DEGREE_INFORMATION,
+            parallel_chi2: CHI2_2DOF_95,
+            perpendicular_chi2: CHI2_1DOF_95,
+            manhattan_chi2: CHI2_2DOF_95,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_degree_information_and_toml_table() {
+        let s = 1f64.to_radians().sin();
+        assert!((ONE_DEGREE_INFORMATION - 1.0 / (s * s)).abs() < 1e-6);
+        let c: BaConfig = toml::from_str("manhattan_weight = 0.0\nsecond_pass_iterations = 3")
+            .expect("valid table");
+        assert_eq!(c.manhattan_weight, 0.0);
+        assert_eq!(c.second_pass_iterations, 3);
+        assert_eq!(c.first_pass_iterations, 5);
+        assert!(toml::from_str::<BaConfig>("unknown = 1").is_err());
+    }
+}

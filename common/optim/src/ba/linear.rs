@@ -1,0 +1,551 @@
+//! The normal equations of local BA and their solution by the Schur complement.
+//!
+//! Variables: free poses (6), points (3), lines (6: both endpoints). Point blocks are
+//! independent of each other, and so are the blocks of lines that take part in no
+//! structural pair (a Manhattan term touches one line only): those landmarks are
+//! eliminated exactly, block by block, into the pose system. A parallel or
+//! perpendicular pair couples two lines, so its lines are *kept* in the reduced system
+//! beside the free poses instead of being eliminated: the reduced matrix is then
+//! `[[S_pp, H_pl], [H_lp, H_ll]]` with `H_ll` block-sparse (one off-diagonal block per
+//! pair). It is solved by faer's sparse Cholesky (AMD ordering, supernodal), whose
+//! symbolic analysis is done once per pass and reused at every LM iteration. This is
+//! the exact Gauss-Newton/LM step, no approximation; its cost grows with the density
+//! of the pair graph, so give each line a few partners rather than all.
+
+use super::BaError;
+use super::problem::BaProblem;
+use super::terms::{BaFlags, Terms};
+use crate::lm::Damping;
+use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
+use faer::{MatMut, Side};
+use nalgebra::{Matrix3, Matrix6, Matrix6x3, Vector3, Vector6};
+use std::collections::HashMap;
+
+/// Marks "no block / no slot".
+const NONE: usize = usize::MAX;
+
+/// The blocks of `J^T W J` and `J^T W e` at one estimate.
+#[derive(Debug, Default)]
+pub(crate) struct Linearization {
+    pub(crate) cost: f64,
+    pub(crate) h_pose: Vec<Matrix6<f64>>,
+    pub(crate) g_pose: Vec<Vector6<f64>>,
+    pub(crate) h_point: Vec<Matrix3<f64>>,
+    pub(crate) g_point: Vec<Vector3<f64>>,
+    pub(crate) h_line: Vec<Matrix6<f64>>,
+    pub(crate) g_line: Vec<Vector6<f64>>,
+    /// Pose-point block `H_px` of each point observation (free pose only).
+    pub(crate) w_point_obs: Vec<Matrix6x3<f64>>,
+    /// Pose-line block `H_pl` of each line observation (free pose only).
+    pub(crate) w_line_obs: Vec<Matrix6<f64>>,
+    /// Line-line block `H_ij` of each parallel pair.
+    pub(crate) h_parallel: Vec<Matrix6<f64>>,
+    /// Line-line block `H_ij` of each perpendicular pair.
+    pub(crate) h_perpendicular: Vec<Matrix6<f64>>,
+}
+
+impl Linearization {
+    pub(crate) fn resize(&mut self, p: &BaProblem) {
+        self.h_pose.resize(p.poses.len(), Matrix6::zeros());
+        self.g_pose.resize(p.poses.len(), Vector6::zeros());
+        self.h_point.resize(p.points.len(), Matrix3::zeros());
+        self.g_point.resize(p.points.len(), Vector3::zeros());
+        self.h_line.resize(p.lines.len(), Matrix6::zeros());
+        self.g_line.resize(p.lines.len(), Vector6::zeros());
+        self.w_point_obs
+            .resize(p.point_observations.len(), Matrix6x3::zeros());
+        self.w_line_obs
+            .resize(p.line_observations.len(), Matrix6::zeros());
+        self.h_parallel.resize(p.parallel.len(), Matrix6::zeros());
+        self.h_perpendicular
+            .resize(p.perpendicular.len(), Matrix6::zeros());
+    }
+
+    pub(crate) fn clear(&mut self) {
+        self.cost = 0.0;
+        self.h_pose.fill(Matrix6::zeros());
+        self.g_pose.fill(Vector6::zeros());
+        self.h_point.fill(Matrix3::zeros());
+        self.g_point.fill(Vector3::zeros());
+        self.h_line.fill(Matrix6::zeros());
+        self.g_line.fill(Vector6::zeros());
+        self.w_point_obs.fill(Matrix6x3::zeros());
+        self.w_line_obs.fill(Matrix6::zeros());
+        self.h_parallel.fill(Matrix6::zeros());
+        self.h_perpendicular.fill(Matrix6::zeros());
+    }
+}
+
+/// The step of every variable (zero for fixed or unconstrained ones).
+#[derive(Debug, Default)]
+pub(crate) struct Step {
+    pub(crate) pose: Vec<Vector6<f64>>,
+    pub(crate) point: Vec<Vector3<f64>>,
+    pub(crate) line: Vec<Vector6<f64>>,
+}
+
+/// Observations of one eliminated landmark: (observation index, pose block).
+type ObsLists = (Vec<usize>, Vec<(usize, usize)>);
+
+/// Structure of the reduced system for one pass (fixed active sets) plus its scratch.
+#[derive(Default)]
+pub(crate) struct ReducedSystem {
+    pose_block: Vec<usize>,
+    line_block: Vec<usize>,
+    point_used: Vec<bool>,
+    line_used: Vec<bool>,
+    /// CSR lists of the active observations with a free pose, per point.
+    point_obs: ObsLists,
+    /// Same per eliminated line.
+    line_obs: ObsLists,
+    blocks: usize,
+    slots: Vec<(usize, usize)>,
+    slot_of: HashMap<(usize, usize), usize>,
+    line_obs_slot: Vec<usize>,
+    parallel_slot: Vec<usize>,
+    perpendicular_slot: Vec<usize>,
+    symbolic: Option<(
+        SymbolicSparseColMat<usize>,
+        Argsort<usize>,
+        SymbolicLlt<usize>,
+    )>,
+    slot_values: Vec<Matrix6<f64>>,
+    values: Vec<f64>,
+    rhs: Vec<f64>,
+    point_inverse: Vec<Matrix3<f64>>,
+    line_inverse: Vec<Matrix6<f64>>,
+    scratch_y3: Vec<Matrix6x3<f64>>,
+    scratch_y6: Vec<Matrix6<f64>>,
+}
+
+/// Why a damped system could not be solved (the LM step is then rejected).
+pub(crate) struct NotPositiveDefinite;
+
+/// Builds CSR lists of (observation, pose block) per landmark.
+fn build_lists(
+    count: usize,
+    observations: impl Iterator<Item = (usize, usize, usize)> + Clone,
+    lists: &mut ObsLists,
+) {
+    let (start, entries) = lists;
+    start.clear();
+    start.resize(count + 1, 0);
+    for (_, landmark, _) in observations.clone() {
+        start[landmark + 1] += 1;
+    }
+    for i in 0..count {
+        start[i + 1] += start[i];
+    }
+    entries.clear();
+    entries.resize(start[count], (0, 0));
+    let mut fill = start.clone();
+    for (k, landmark, block) in observations {
+        entries[fill[landmark]] = (k, block);
+        fill[landmark] += 1;
+    }
+}
+
+/// Writes a 6-vector into block `block` of `rhs`.
+fn set_rhs(rhs: &mut [f64], block: usize, value: &Vector6<f64>) {
+    rhs[6 * block..6 * block + 6].copy_from_slice(value.as_slice());
+}
+
+impl ReducedSystem {
+    fn slot(&mut self, row: usize, col: usize) -> usize {
+        let key = (row.max(col), row.min(col));
+        let next = self.slots.len();
+        let slot = *self.slot_of.entry(key).or_insert(next);
+        if slot == next {
+            self.slots.push(key);
+        }
+        slot
+    }
+
+    /// Sets up the block structure and the symbolic factorisation for the active terms.
+    ///
+    /// # Errors
+    /// [`BaError::Solver`] when faer cannot build the pattern or its analysis.
+    pub(crate) fn analyse(&mut self, terms: &Terms<'_>, flags: &BaFlags) -> Result<(), BaError> {
+        let p = terms.problem;
+        self.pose_block.clear();
+        let mut blocks = 0;
+        for pose in &p.poses {
+            self.pose_block.push(if pose.fixed { NONE } else { blocks });
+            blocks += usize::from(!pose.fixed);
+        }
+        let free_poses = blocks;
+        self.line_block.clear();
+        self.line_block.resize(p.lines.len(), NONE);
+        self.line_used.clear();
+        self.line_used.resize(p.lines.len(), false);
+        self.point_used.clear();
+        self.point_used.resize(p.points.len(), false);
+        let pairs = p
+            .parallel
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| terms.parallel_active(flags, k))
+            .chain(
+                p.perpendicular
+                    .iter()
+                    .enumerate()
+                    .filter(|&(k, _)| terms.perpendicular_active(flags, k)),
+            );
+        for (_, &(i, j)) in pairs {
+            for l in [i, j] {
+                if self.line_block[l] == NONE {
+                    self.line_block[l] = blocks;
+                    blocks += 1;
+                }
+                self.line_used[l] = true;
+            }
+        }
+        self.blocks = blocks;
+        for (o, _) in p
+            .point_observations
+            .iter()
+            .zip(&flags.point_observations)
+            .filter(|(_, f)| **f)
+        {
+            self.point_used[o.point] = true;
+        }
+        for (o, _) in p
+            .line_observations
+            .iter()
+            .zip(&flags.line_observations)
+            .filter(|(_, f)| **f)
+        {
+            self.line_used[o.line] = true;
+        }
+        for (k, m) in p.manhattan.iter().enumerate() {
+            self.line_used[m.line] |= terms.manhattan_active(flags, k);
+        }
+
+        let pose_block = &self.pose_block;
+        let point_iter = p
+            .point_observations
+            .iter()
+            .enumerate()
+            .filter(|&(k, o)| flags.point_observations[k] && pose_block[o.pose] != NONE)
+            .map(|(k, o)| (k, o.point, pose_block[o.pose]));
+        build_lists(p.points.len(), point_iter, &mut self.point_obs);
+        let line_block = &self.line_block;
+        let line_iter = p
+            .line_observations
+            .iter()
+            .enumerate()
+            .filter(|&(k, o)| {
+                flags.line_observations[k]
+                    && pose_block[o.pose] != NONE
+                    && line_block[o.line] == NONE
+            })
+            .map(|(k, o)| (k, o.line, pose_block[o.pose]));
+        build_lists(p.lines.len(), line_iter, &mut self.line_obs);
+
+        // Block pattern (lower triangle): all pose pairs (local BA covisibility is close
+        // to dense), kept lines' diagonals, their pose couplings and their pairs.
+        self.slots.clear();
+        self.slot_of.clear();
+        for a in 0..free_poses {
+            for b in 0..=a {
+                self.slot(a, b);
+            }
+        }
+        for l in 0..p.lines.len() {
+            if self.line_block[l] != NONE {
+                self.slot(self.line_block[l], self.line_block[l]);
+            }
+        }
+        self.line_obs_slot.clear();
+        for (k, o) in p.line_observations.iter().enumerate() {
+            let (lb, pb) = (self.line_block[o.line], self.pose_block[o.pose]);
+            let slot = if flags.line_observations[k] && lb != NONE && pb != NONE {
+                self.slot(lb, pb)
+            } else {
+                NONE
+            };
+            self.line_obs_slot.push(slot);
+        }
+        self.parallel_slot.clear();
+        for (k, &(i, j)) in p.parallel.iter().enumerate() {
+            let slot = if terms.parallel_active(flags, k) {
+                self.slot(self.line_block[i], self.line_block[j])
+            } else {
+                NONE
+            };
+            self.parallel_slot.push(slot);
+        }
+        self.perpendicular_slot.clear();
+        for (k, &(i, j)) in p.perpendicular.iter().enumerate() {
+            let slot = if terms.perpendicular_active(flags, k) {
+                self.slot(self.line_block[i], self.line_block[j])
+            } else {
+                NONE
+            };
+            self.perpendicular_slot.push(slot);
+        }
+
+        let n = 6 * self.blocks;
+        self.symbolic = None;
+        if n == 0 {
+            return Ok(());
+        }
+        let mut pattern = Vec::with_capacity(self.slots.len() * 36);
+        for &(rb, cb) in &self.slots {
+            for c in 0..6 {
+                for r in 0..6 {
+                    if rb != cb || r >= c {
+                        pattern.push(Pair {
+                            row: 6 * rb + r,
+                            col: 6 * cb + c,
+                        });
+                    }
+                }
+            }
+        }
+        let solver_error = |reason: String| BaError::Solver {
+            dimension: n,
+            reason,
+        };
+        let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &pattern)
+            .map_err(|e| solver_error(format!("{e:?}")))?;
+        let llt = SymbolicLlt::try_new(symbolic.as_ref(), Side::Lower)
+            .map_err(|e| solver_error(format!("{e:?}")))?;
+        self.symbolic = Some((symbolic, argsort, llt));
+        Ok(())
+    }
+
+    /// Solves the damped normal equations for the step; returns the decrease of the
+    /// cost predicted by the linear model.
+    pub(crate) fn solve(
+        &mut self,
+        p: &BaProblem,
+        lin: &Linearization,
+        damping: &Damping,
+        step: &mut Step,
+    ) -> Result<f64, NotPositiveDefinite> {
+        let damp6 = |h: &Matrix6<f64>| {
+            let mut a = *h;
+            for k in 0..6 {
+                a[(k, k)] += damping.diagonal_term(h[(k, k)]);
+            }
+            a
+        };
+        self.slot_values.clear();
+        self.slot_values.resize(self.slots.len(), Matrix6::zeros());
+        self.rhs.clear();
+        self.rhs.resize(6 * self.blocks, 0.0);
+        self.point_inverse.resize(p.points.len(), Matrix3::zeros());
+        self.line_inverse.resize(p.lines.len(), Matrix6::zeros());
+
+        for (i, &b) in self.pose_block.iter().enumerate() {
+            if b != NONE {
+                self.slot_values[self.slot_of[&(b, b)]] += damp6(&lin.h_pose[i]);
+                set_rhs(&mut self.rhs, b, &(-lin.g_pose[i]));
+            }
+        }
+        // Eliminate points (eq. of the Schur complement: S -= W A^-1 W^T, r += W A^-1 g).
+        for x in 0..p.points.len() {
+            if !self.point_used[x] {
+                continue;
+            }
+            let mut a = lin.h_point[x];
+            for k in 0..3 {
+                a[(k, k)] += damping.diagonal_term(a[(k, k)]);
+            }
+            let inverse = a.cholesky().ok_or(NotPositiveDefinite)?.inverse();
+            self.point_inverse[x] = inverse;
+            let (start, entries) = &self.point_obs;
+            let list = &entries[start[x]..start[x + 1]];
+            self.scratch_y3.clear();
+            for &(k, b) in list {
+                let y = lin.w_point_obs[k] * inverse;
+                let r = y * lin.g_point[x];
+                for c in 0..6 {
+                    self.rhs[6 * b + c] += r[c];
+                }
+                self.scratch_y3.push(y);
+            }
+            for (ya, &(_, ba)) in self.scratch_y3.iter().zip(list) {
+                for &(kb, bb) in list {
+                    if ba >= bb {
+                        let slot = self.slot_of[&(ba, bb)];
+                        self.slot_values[slot] -= ya * lin.w_point_obs[kb].transpose();
+                    }
+                }
+            }
+        }
+        // Eliminate the lines outside every structural pair the same way; keep the others.
+        for l in 0..p.lines.len() {
+            if !self.line_used[l] {
+                continue;
+            }
+            let kept = self.line_block[l];
+            if kept != NONE {
+                self.slot_values[self.slot_of[&(kept, kept)]] += damp6(&lin.h_line[l]);
+                set_rhs(&mut self.rhs, kept, &(-lin.g_line[l]));
+                continue;
+            }
+            let inverse = damp6(&lin.h_line[l])
+                .cholesky()
+                .ok_or(NotPositiveDefinite)?
+                .inverse();
+            self.line_inverse[l] = inverse;
+            let (start, entries) = &self.line_obs;
+            let list = &entries[start[l]..start[l + 1]];
+            self.scratch_y6.clear();
+            for &(k, b) in list {
+                let y = lin.w_line_obs[k] * inverse;
+                let r = y * lin.g_line[l];
+                for c in 0..6 {
+                    self.rhs[6 * b + c] += r[c];
+                }
+                self.scratch_y6.push(y);
+            }
+            for (ya, &(_, ba)) in self.scratch_y6.iter().zip(list) {
+                for &(kb, bb) in list {
+                    if ba >= bb {
+                        let slot = self.slot_of[&(ba, bb)];
+                        self.slot_values[slot] -= ya * lin.w_line_obs[kb].transpose();
+                    }
+                }
+            }
+        }
+        // Couplings of the kept lines: with the poses observing them and their pairs.
+        for k in 0..p.line_observations.len() {
+            let slot = self.line_obs_slot[k];
+            if slot != NONE {
+                self.slot_values[slot] += lin.w_line_obs[k].transpose();
+            }
+        }
+        let pair_lists = [
+            (&p.parallel, &self.parallel_slot, &lin.h_parallel),
+            (
+                &p.perpendicular,
+                &self.perpendicular_slot,
+                &lin.h_perpendicular,
+            ),
+        ];
+        for (pairs, slots, h) in pair_lists {
+            for (k, &(i, j)) in pairs.iter().enumerate() {
+                let slot = slots[k];
+                if slot == NONE {
+                    continue;
+                }
+                if self.line_block[i] > self.line_block[j] {
+                    self.slot_values[slot] += h[k];
+                } else {
+                    self.slot_values[slot] += h[k].transpose();
+                }
+            }
+        }
+        self.factor_and_solve()?;
+        Ok(self.back_substitute(p, lin, damping, step))
+    }
+
+    /// Factorises the reduced matrix and overwrites `rhs` with the reduced step.
+    fn factor_and_solve(&mut self) -> Result<(), NotPositiveDefinite> {
+        let Some((symbolic, argsort, llt)) = &self.symbolic else {
+            return Ok(());
+        };
+        self.values.clear();
+        for (value, &(rb, cb)) in self.slot_values.iter().zip(&self.slots) {
+            for c in 0..6 {
+                for r in 0..6 {
+                    if rb != cb || r >= c {
+                        self.values.push(value[(r, c)]);
+                    }
+                }
+            }
+        }
+        let matrix = SparseColMat::new_from_argsort(symbolic.clone(), argsort, &self.values)
+            .map_err(|_| NotPositiveDefinite)?;
+        let factor = Llt::try_new_with_symbolic(llt.clone(), matrix.as_ref(), Side::Lower)
+            .map_err(|_| NotPositiveDefinite)?;
+        let n = self.rhs.len();
+        factor.solve_in_place(MatMut::from_column_major_slice_mut(&mut self.rhs, n, 1));
+        if self.rhs.iter().all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(NotPositiveDefinite)
+        }
+    }
+
+    fn reduced_step(&self, block: usize) -> Vector6<f64> {
+        Vector6::from_column_slice(&self.rhs[6 * block..6 * block + 6])
+    }
+
+    /// Recovers the eliminated landmarks' steps and returns the predicted decrease
+    /// `lambda delta^T D delta - g^T delta` (see `crate::lm`).
+    fn back_substitute(
+        &self,
+        p: &BaProblem,
+        lin: &Linearization,
+        damping: &Damping,
+        step: &mut Step,
+    ) -> f64 {
+        let mut predicted = 0.0;
+        let mut add = |h_diag: &[f64], g: &[f64], d: &[f64]| {
+            for ((h, g), d) in h_diag.iter().zip(g).zip(d) {
+                predicted += damping.diagonal_term(*h) * d * d - g * d;
+            }
+        };
+        step.pose.clear();
+        step.pose.resize(p.poses.len(), Vector6::zeros());
+        for (i, &b) in self.pose_block.iter().enumerate() {
+            if b != NONE {
+                step.pose[i] = self.reduced_step(b);
+                add(
+                    lin.h_pose[i].diagonal().as_slice(),
+                    lin.g_pose[i].as_slice(),
+                    step.pose[i].as_slice(),
+                );
+            }
+        }
+        step.point.clear();
+        step.point.resize(p.points.len(), Vector3::zeros());
+        let (start, entries) = &self.point_obs;
+        for x in 0..p.points.len() {
+            if !self.point_used[x] {
+                continue;
+            }
+            let mut r = -lin.g_point[x];
+            for &(k, _) in &entries[start[x]..start[x + 1]] {
+                let pose = p.point_observations[k].pose;
+                r -= lin.w_point_obs[k].transpose() * step.pose[pose];
+            }
+            step.point[x] = self.point_inverse[x] * r;
+            add(
+                lin.h_point[x].diagonal().as_slice(),
+                lin.g_point[x].as_slice(),
+                step.point[x].as_slice(),
+            );
+        }
+        step.line.clear();
+        step.line.resize(p.lines.len(), Vector6::zeros());
+        let (start, entries) = &self.line_obs;
+        for l in 0..p.lines.len() {
+            if !self.line_used[l] {
+                continue;
+            }
+            if self.line_block[l] != NONE {
+                step.line[l] = self.reduced_step(self.line_block[l]);
+            } else {
+                let mut r = -lin.g_line[l];
+                for &(k, _) in &entries[start[l]..start[l + 1]] {
+                    let pose = p.line_observations[k].pose;
+                    r -= lin.w_line_obs[k].transpose() * step.pose[pose];
+                }
+                step.line[l] = self.line_inverse[l] * r;
+            }
+            add(
+                lin.h_line[l].diagonal().as_slice(),
+                lin.g_line[l].as_slice(),
+                step.line[l].as_slice(),
+            );
+        }
+        predicted
+    }
+}

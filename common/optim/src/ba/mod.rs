@@ -1,0 +1,12 @@
+//! Local bundle adjustment with structural constraints (paper eq. 10-14).
+
+mod config;
+mod linear;
+mod problem;
+mod solver;
+mod terms;
+
+pub use config::{BaConfig, ONE_DEGREE_INFORMATION};
+pub use problem::{BaError, BaLineObservation, BaManhattan, BaPointObservation, BaPose, BaProblem};
+pub use solver::{BaResult, LocalBundleAdjuster};
+pub use terms::BaFlags;

@@ -1,0 +1,163 @@
+//! Local bundle adjustment (paper eq. 10-14): Levenberg-Marquardt over keyframe poses,
+//! map points and map lines with reprojection, structural and Manhattan terms, in two
+//! passes as ORB-SLAM2's local BA (a first pass, an outlier check, a second pass on the
+//! inliers; the Huber kernel stays on in both).
+
+use super::config::BaConfig;
+use super::linear::{Linearization, ReducedSystem, Step};
+use super::problem::{BaError, BaProblem};
+use super::terms::{BaFlags, Terms, Values};
+use crate::lm::Damping;
+use gfs_core::se3::retract;
+
+/// Relative cost decrease below which LM has converged.
+const RELATIVE_COST_TOLERANCE: f64 = 1e-9;
+
+/// Output of [`LocalBundleAdjuster::optimize`]; reuse one value to keep its buffers.
+#[derive(Clone, Debug, Default)]
+pub struct BaResult {
+    /// Inlier flags of every term at the final estimate (chi-square test). The mapper
+    /// erases the observations flagged `false` (ORB-SLAM2), and may drop the pairs and
+    /// axis associations flagged `false`.
+    pub inliers: BaFlags,
+    /// Robust cost of the final inliers at the initial estimate (terms that cannot be
+    /// evaluated there are skipped).
+    pub initial_cost: f64,
+    /// Robust cost of the final inliers at the final estimate.
+    pub final_cost: f64,
+    /// LM iterations over both passes.
+    pub iterations: usize,
+    /// True when the second pass converged before its iteration limit; false means the
+    /// estimate is the last one reached (still written to the problem).
+    pub converged: bool,
+}
+
+/// Reusable local BA: owns the linear-algebra scratch between calls.
+#[derive(Default)]
+pub struct LocalBundleAdjuster {
+    values: Values,
+    candidate: Values,
+    initial: Values,
+    linearization: Linearization,
+    system: ReducedSystem,
+    step: Step,
+}
+
+impl LocalBundleAdjuster {
+    /// An adjuster with empty buffers.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Optimises the free poses, the points and the lines of `problem` in place.
+    ///
+    /// # Errors
+    /// [`BaError`] when the problem refers to missing variables, holds non-finite
+    /// values, fixes no pose, or the sparse solver cannot be set up; `problem` is then
+    /// unchanged.
+    pub fn optimize(
+        &mut self,
+        problem: &mut BaProblem,
+        config: &BaConfig,
+        result: &mut BaResult,
+    ) -> Result<(), BaError> {
+        problem.validate()?;
+        self.values.copy_from_problem(problem);
+        self.initial.clone_from(&self.values);
+        self.linearization.resize(problem);
+        {
+            let terms = Terms::new(problem, config);
+            let flags = &mut result.inliers;
+            flags.reset(problem);
+            terms.mark_invalid(&self.values, flags);
+            let (first, _) = self.run_lm(&terms, flags, config.first_pass_iterations)?;
+            terms.classify(&self.values, flags);
+            let (second, converged) = self.run_lm(&terms, flags, config.second_pass_iterations)?;
+            terms.classify(&self.values, flags);
+            result.iterations = first + second;
+            result.converged = converged;
+            result.initial_cost = terms.cost(&self.initial, flags, false).unwrap_or(0.0);
+            result.final_cost = terms.cost(&self.values, flags, false).unwrap_or(0.0);
+        }
+        for (pose, value) in problem.poses.iter_mut().zip(&self.values.poses) {
+            if !pose.fixed {
+                pose.camera_from_world = *value;
+            }
+        }
+        problem.points.clone_from(&self.values.points);
+        problem.lines.clone_from(&self.values.lines);
+        Ok(())
+    }
+
+    /// One LM pass over the active terms; returns the iterations and convergence.
+    fn run_lm(
+        &mut self,
+        terms: &Terms<'_>,
+        flags: &BaFlags,
+        max_iterations: usize,
+    ) -> Result<(usize, bool), BaError> {
+        if max_iterations == 0 {
+            return Ok((0, false));
+        }
+        let problem = terms.problem;
+        self.system.analyse(terms, flags)?;
+        let mut damping = Damping::new();
+        terms.linearize(&self.values, flags, &mut self.linearization);
+        for iteration in 1..=max_iterations {
+            let mut accepted = None;
+            loop {
+                if let Ok(predicted) =
+                    self.system
+                        .solve(problem, &self.linearization, &damping, &mut self.step)
+                {
+                    self.apply_step(problem);
+                    if let Some(cost) = terms.cost(&self.candidate, flags, true)
+                        && cost < self.linearization.cost
+                    {
+                        let rho =
+                            (self.linearization.cost - cost) / predicted.max(f64::MIN_POSITIVE);
+                        damping.accept(rho);
+                        accepted = Some(cost);
+                        break;
+                    }
+                }
+                if !damping.reject() {
+                    break;
+                }
+            }
+            // No decrease at any damping: a minimum to working precision.
+            let Some(cost) = accepted else {
+                return Ok((iteration, true));
+            };
+            std::mem::swap(&mut self.values, &mut self.candidate);
+            if self.linearization.cost - cost <= RELATIVE_COST_TOLERANCE * self.linearization.cost {
+                return Ok((iteration, true));
+            }
+            terms.linearize(&self.values, flags, &mut self.linearization);
+        }
+        Ok((max_iterations, false))
+    }
+
+    /// `candidate = values ⊕ step` (left perturbation for poses, additive for landmarks).
+    fn apply_step(&mut self, problem: &BaProblem) {
+        self.candidate.clone_from(&self.values);
+        for ((c, d), pose) in self
+            .candidate
+            .poses
+            .iter_mut()
+            .zip(&self.step.pose)
+            .zip(&problem.poses)
+        {
+            if !pose.fixed {
+                *c = retract(c, d);
+            }
+        }
+        for (c, d) in self.candidate.points.iter_mut().zip(&self.step.point) {
+            *c += d;
+        }
+        for (c, d) in self.candidate.lines.iter_mut().zip(&self.step.line) {
+            c[0] += d.fixed_rows::<3>(0);
+            c[1] += d.fixed_rows::<3>(3);
+        }
+    }
+}

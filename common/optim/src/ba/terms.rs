@@ -1,0 +1,363 @@
+//! Evaluation of every BA term at an estimate: chi-square for the outlier checks,
+//! robust cost for LM step acceptance, and the linearisation into the normal
+//! equations' blocks.
+
+use super::config::BaConfig;
+use super::linear::Linearization;
+use super::problem::BaProblem;
+use crate::residuals::{
+    LineReprojection, ManhattanAxis, ParallelLines, PerpendicularLines, PointReprojection,
+};
+use crate::robust::Huber;
+use nalgebra::{Isometry3, SMatrix, SVector, Vector3};
+
+/// The current values of all variables.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Values {
+    pub(crate) poses: Vec<Isometry3<f64>>,
+    pub(crate) points: Vec<Vector3<f64>>,
+    pub(crate) lines: Vec<[Vector3<f64>; 2]>,
+}
+
+impl Values {
+    pub(crate) fn copy_from_problem(&mut self, problem: &BaProblem) {
+        self.poses.clear();
+        self.poses
+            .extend(problem.poses.iter().map(|p| p.camera_from_world));
+        self.points.clone_from(&problem.points);
+        self.lines.clone_from(&problem.lines);
+    }
+}
+
+/// Per-term activity (inlier) flags, in the order of the problem's lists.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BaFlags {
+    /// One per [`BaProblem::point_observations`].
+    pub point_observations: Vec<bool>,
+    /// One per [`BaProblem::line_observations`].
+    pub line_observations: Vec<bool>,
+    /// One per [`BaProblem::parallel`] pair.
+    pub parallel: Vec<bool>,
+    /// One per [`BaProblem::perpendicular`] pair.
+    pub perpendicular: Vec<bool>,
+    /// One per [`BaProblem::manhattan`] association.
+    pub manhattan: Vec<bool>,
+}
+
+impl BaFlags {
+    pub(crate) fn reset(&mut self, problem: &BaProblem) {
+        let reset = |v: &mut Vec<bool>, n: usize| {
+            v.clear();
+            v.resize(n, true);
+        };
+        reset(
+            &mut self.point_observations,
+            problem.point_observations.len(),
+        );
+        reset(&mut self.line_observations, problem.line_observations.len());
+        reset(&mut self.parallel, problem.parallel.len());
+        reset(&mut self.perpendicular, problem.perpendicular.len());
+        reset(&mut self.manhattan, problem.manhattan.len());
+    }
+}
+
+/// The problem's terms with their weights and kernels.
+pub(crate) struct Terms<'a> {
+    pub(crate) problem: &'a BaProblem,
+    config: &'a BaConfig,
+    point_huber: Huber,
+    line_huber: Huber,
+    parallel_huber: Huber,
+    perpendicular_huber: Huber,
+    manhattan_huber: Huber,
+}
+
+/// Adds `J^T w J` and `J^T w e` of a residual of one variable to its blocks.
+#[inline]
+fn add_block<const R: usize, const C: usize>(
+    h: &mut SMatrix<f64, C, C>,
+    g: &mut SVector<f64, C>,
+    j: &SMatrix<f64, R, C>,
+    e: &SVector<f64, R>,
+    w: f64,
+) {
+    let jt_w = j.transpose() * w;
+    *h += jt_w * j;
+    *g += jt_w * e;
+}
+
+impl<'a> Terms<'a> {
+    pub(crate) fn new(problem: &'a BaProblem, config: &'a BaConfig) -> Self {
+        Self {
+            problem,
+            config,
+            point_huber: Huber::from_chi2(config.point_chi2),
+            line_huber: Huber::from_chi2(config.line_chi2),
+            parallel_huber: Huber::from_chi2(config.parallel_chi2),
+            perpendicular_huber: Huber::from_chi2(config.perpendicular_chi2),
+            manhattan_huber: Huber::from_chi2(config.manhattan_chi2),
+        }
+    }
+
+    /// True when parallel pair `k` takes part (weight on and flagged inlier).
+    pub(crate) fn parallel_active(&self, flags: &BaFlags, k: usize) -> bool {
+        self.config.parallel_weight > 0.0 && flags.parallel[k]
+    }
+
+    /// True when perpendicular pair `k` takes part.
+    pub(crate) fn perpendicular_active(&self, flags: &BaFlags, k: usize) -> bool {
+        self.config.perpendicular_weight > 0.0 && flags.perpendicular[k]
+    }
+
+    /// True when Manhattan association `k` takes part.
+    pub(crate) fn manhattan_active(&self, flags: &BaFlags, k: usize) -> bool {
+        self.config.manhattan_weight > 0.0 && flags.manhattan[k]
+    }
+
+    fn point_chi2(&self, v: &Values, k: usize) -> Option<f64> {
+        let o = &self.problem.point_observations[k];
+        let e = PointReprojection { uv: o.uv }.error(
+            &self.problem.camera,
+            &v.poses[o.pose],
+            &v.points[o.point],
+        )?;
+        Some(o.inv_sigma2 * e.norm_squared())
+    }
+
+    fn line_chi2(&self, v: &Values, k: usize) -> Option<f64> {
+        let o = &self.problem.line_observations[k];
+        let e = LineReprojection { coeffs: o.coeffs }.error(
+            &self.problem.camera,
+            &v.poses[o.pose],
+            &v.lines[o.line],
+        )?;
+        Some(o.inv_sigma2 * e.norm_squared())
+    }
+
+    fn parallel_chi2(&self, v: &Values, k: usize) -> Option<f64> {
+        let (i, j) = self.problem.parallel[k];
+        if i == j {
+            return None;
+        }
+        let e = ParallelLines.error(&v.lines[i], &v.lines[j])?;
+        Some(self.config.parallel_weight * e.norm_squared())
+    }
+
+    fn perpendicular_chi2(&self, v: &Values, k: usize) -> Option<f64> {
+        let (i, j) = self.problem.perpendicular[k];
+        if i == j {
+            return None;
+        }
+        let e = PerpendicularLines.error(&v.lines[i], &v.lines[j])?;
+        Some(self.config.perpendicular_weight * e * e)
+    }
+
+    fn manhattan_chi2(&self, v: &Values, k: usize) -> Option<f64> {
+        let m = &self.problem.manhattan[k];
+        let e = ManhattanAxis { axis: m.axis }.error(&v.lines[m.line])?;
+        Some(self.config.manhattan_weight * e.norm_squared())
+    }
+
+    /// Flags every term by its chi-square at `v`: invalid (behind the camera,
+    /// degenerate line, non-positive information) or above its threshold = outlier.
+    pub(crate) fn classify(&self, v: &Values, flags: &mut BaFlags) {
+        let inlier = |s: Option<f64>, threshold: f64| s.is_some_and(|s| s <= threshold);
+        let p = self.problem;
+        for (k, f) in flags.point_observations.iter_mut().enumerate() {
+            *f = p.point_observations[k].inv_sigma2 > 0.0
+                && inlier(self.point_chi2(v, k), self.config.point_chi2);
+        }
+        for (k, f) in flags.line_observations.iter_mut().enumerate() {
+            *f = p.line_observations[k].inv_sigma2 > 0.0
+                && inlier(self.line_chi2(v, k), self.config.line_chi2);
+        }
+        for (k, f) in flags.parallel.iter_mut().enumerate() {
+            *f = inlier(self.parallel_chi2(v, k), self.config.parallel_chi2);
+        }
+        for (k, f) in flags.perpendicular.iter_mut().enumerate() {
+            *f = inlier(
+                self.perpendicular_chi2(v, k),
+                self.config.perpendicular_chi2,
+            );
+        }
+        for (k, f) in flags.manhattan.iter_mut().enumerate() {
+            *f = inlier(self.manhattan_chi2(v, k), self.config.manhattan_chi2);
+        }
+    }
+
+    /// Flags only the terms that cannot be evaluated at `v` (the start of the first
+    /// pass, when every valid term is an inlier).
+    pub(crate) fn mark_invalid(&self, v: &Values, flags: &mut BaFlags) {
+        let p = self.problem;
+        for (k, f) in flags.point_observations.iter_mut().enumerate() {
+            *f = p.point_observations[k].inv_sigma2 > 0.0 && self.point_chi2(v, k).is_some();
+        }
+        for (k, f) in flags.line_observations.iter_mut().enumerate() {
+            *f = p.line_observations[k].inv_sigma2 > 0.0 && self.line_chi2(v, k).is_some();
+        }
+        for (k, f) in flags.parallel.iter_mut().enumerate() {
+            *f = self.parallel_chi2(v, k).is_some();
+        }
+        for (k, f) in flags.perpendicular.iter_mut().enumerate() {
+            *f = self.perpendicular_chi2(v, k).is_some();
+        }
+        for (k, f) in flags.manhattan.iter_mut().enumerate() {
+            *f = self.manhattan_chi2(v, k).is_some();
+        }
+    }
+
+    /// Robust cost of the active terms at `v`. With `strict`, `None` when one of them
+    /// cannot be evaluated there (the LM step that led there is rejected); otherwise
+    /// such terms are skipped.
+    pub(crate) fn cost(&self, v: &Values, flags: &BaFlags, strict: bool) -> Option<f64> {
+        let mut cost = 0.0;
+        let mut add = |s: Option<f64>, huber: &Huber| match s {
+            Some(s) => {
+                cost += huber.cost(s);
+                true
+            }
+            None => !strict,
+        };
+        let mut ok = true;
+        for k in (0..flags.point_observations.len()).filter(|&k| flags.point_observations[k]) {
+            ok &= add(self.point_chi2(v, k), &self.point_huber);
+        }
+        for k in (0..flags.line_observations.len()).filter(|&k| flags.line_observations[k]) {
+            ok &= add(self.line_chi2(v, k), &self.line_huber);
+        }
+        for k in (0..flags.parallel.len()).filter(|&k| self.parallel_active(flags, k)) {
+            ok &= add(self.parallel_chi2(v, k), &self.parallel_huber);
+        }
+        for k in (0..flags.perpendicular.len()).filter(|&k| self.perpendicular_active(flags, k)) {
+            ok &= add(self.perpendicular_chi2(v, k), &self.perpendicular_huber);
+        }
+        for k in (0..flags.manhattan.len()).filter(|&k| self.manhattan_active(flags, k)) {
+            ok &= add(self.manhattan_chi2(v, k), &self.manhattan_huber);
+        }
+        (ok && cost.is_finite()).then_some(cost)
+    }
+
+    /// Linearises every active term at `v` into `lin` (blocks zeroed first).
+    pub(crate) fn linearize(&self, v: &Values, flags: &BaFlags, lin: &mut Linearization) {
+        lin.clear();
+        let p = self.problem;
+        let camera = &p.camera;
+        for (k, o) in p.point_observations.iter().enumerate() {
+            if !flags.point_observations[k] {
+                continue;
+            }
+            let r = PointReprojection { uv: o.uv };
+            let Some(l) = r.linearize(camera, &v.poses[o.pose], &v.points[o.point]) else {
+                continue;
+            };
+            let s = o.inv_sigma2 * l.error.norm_squared();
+            let w = o.inv_sigma2 * self.point_huber.weight(s);
+            lin.cost += self.point_huber.cost(s);
+            add_block(
+                &mut lin.h_point[o.point],
+                &mut lin.g_point[o.point],
+                &l.d_point,
+                &l.error,
+                w,
+            );
+            if !p.poses[o.pose].fixed {
+                add_block(
+                    &mut lin.h_pose[o.pose],
+                    &mut lin.g_pose[o.pose],
+                    &l.d_pose,
+                    &l.error,
+                    w,
+                );
+                lin.w_point_obs[k] = l.d_pose.transpose() * w * l.d_point;
+            }
+        }
+        for (k, o) in p.line_observations.iter().enumerate() {
+            if !flags.line_observations[k] {
+                continue;
+            }
+            let r = LineReprojection { coeffs: o.coeffs };
+            let Some(l) = r.linearize(camera, &v.poses[o.pose], &v.lines[o.line]) else {
+                continue;
+            };
+            let s = o.inv_sigma2 * l.error.norm_squared();
+            let w = o.inv_sigma2 * self.line_huber.weight(s);
+            lin.cost += self.line_huber.cost(s);
+            add_block(
+                &mut lin.h_line[o.line],
+                &mut lin.g_line[o.line],
+                &l.d_line,
+                &l.error,
+                w,
+            );
+            if !p.poses[o.pose].fixed {
+                add_block(
+                    &mut lin.h_pose[o.pose],
+                    &mut lin.g_pose[o.pose],
+                    &l.d_pose,
+                    &l.error,
+                    w,
+                );
+                lin.w_line_obs[k] = l.d_pose.transpose() * w * l.d_line;
+            }
+        }
+        for (k, &(i, j)) in p.parallel.iter().enumerate() {
+            if !self.parallel_active(flags, k) {
+                continue;
+            }
+            let Some(l) = ParallelLines.linearize(&v.lines[i], &v.lines[j]) else {
+                continue;
+            };
+            let s = self.config.parallel_weight * l.error.norm_squared();
+            let w = self.config.parallel_weight * self.parallel_huber.weight(s);
+            lin.cost += self.parallel_huber.cost(s);
+            add_block(
+                &mut lin.h_line[i],
+                &mut lin.g_line[i],
+                &l.d_first,
+                &l.error,
+                w,
+            );
+            add_block(
+                &mut lin.h_line[j],
+                &mut lin.g_line[j],
+                &l.d_second,
+                &l.error,
+                w,
+            );
+            lin.h_parallel[k] = l.d_first.transpose() * w * l.d_second;
+        }
+        for (k, &(i, j)) in p.perpendicular.iter().enumerate() {
+            if !self.perpendicular_active(flags, k) {
+                continue;
+            }
+            let Some(l) = PerpendicularLines.linearize(&v.lines[i], &v.lines[j]) else {
+                continue;
+            };
+            let s = self.config.perpendicular_weight * l.error * l.error;
+            let w = self.config.perpendicular_weight * self.perpendicular_huber.weight(s);
+            let e = SVector::<f64, 1>::new(l.error);
+            lin.cost += self.perpendicular_huber.cost(s);
+            add_block(&mut lin.h_line[i], &mut lin.g_line[i], &l.d_first, &e, w);
+            add_block(&mut lin.h_line[j], &mut lin.g_line[j], &l.d_second, &e, w);
+            lin.h_perpendicular[k] = l.d_first.transpose() * w * l.d_second;
+        }
+        for (k, m) in p.manhattan.iter().enumerate() {
+            if !self.manhattan_active(flags, k) {
+                continue;
+            }
+            let Some(l) = (ManhattanAxis { axis: m.axis }).linearize(&v.lines[m.line]) else {
+                continue;
+            };
+            let s = self.config.manhattan_weight * l.error.norm_squared();
+            let w = self.config.manhattan_weight * self.manhattan_huber.weight(s);
+            lin.cost += self.manhattan_huber.cost(s);
+            add_block(
+                &mut lin.h_line[m.line],
+                &mut lin.g_line[m.line],
+                &l.d_line,
+                &l.error,
+                w,
+            );
+        }
+    }
+}

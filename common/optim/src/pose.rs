@@ -1,0 +1,355 @@
+//! Pose-only optimisation for tracking (paper eq. 6-9): the camera pose that minimises
+//! the Huber-robustified point reprojection and line endpoint-to-line errors against
+//! fixed map points and lines, by Levenberg-Marquardt on SE(3) (6x6 normal equations),
+//! in several rounds with chi-square outlier rejection (ORB-SLAM2
+//! `PoseOptimization`: 4 rounds x 10 iterations, every observation re-classified at the
+//! end of each round, the kernel dropped after the second round).
+
+use crate::lm::Damping;
+use crate::residuals::{LineReprojection, PointReprojection};
+use crate::robust::{CHI2_2DOF_95, Huber};
+use gfs_core::camera::PinholeCamera;
+use gfs_core::se3::retract;
+use nalgebra::{Isometry3, Matrix6, Vector2, Vector3, Vector6};
+use serde::Deserialize;
+
+/// A map point matched to a keypoint of the frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointObservation {
+    /// The map point, world frame, metres (held fixed).
+    pub point_in_world: Vector3<f64>,
+    /// The keypoint, undistorted pixels (u, v).
+    pub uv: Vector2<f64>,
+    /// Information of the keypoint, 1/px^2 (see [`crate::robust::inv_sigma2_for_level`]).
+    pub inv_sigma2: f64,
+}
+
+/// A map line matched to a 2D line of the frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LineObservation {
+    /// The map line's endpoints `[S, E]`, world frame, metres (held fixed).
+    pub endpoints_in_world: [Vector3<f64>; 2],
+    /// The observed line `(a, b, c)`, `a^2 + b^2 = 1`, pixels (see [`LineReprojection`]).
+    pub coeffs: Vector3<f64>,
+    /// Information of the endpoint distances, 1/px^2.
+    pub inv_sigma2: f64,
+}
+
+/// Parameters of [`optimize_pose`] (TOML table `[pose_optimizer]`).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PoseOptimizerConfig {
+    /// Outlier-rejection rounds; default 4 (ORB-SLAM2).
+    pub rounds: usize,
+    /// LM iterations per round; default 10 (ORB-SLAM2).
+    pub iterations_per_round: usize,
+    /// Rounds that use the Huber kernel, after which the inliers are weighted plainly;
+    /// default 2 (ORB-SLAM2).
+    pub robust_rounds: usize,
+    /// Chi-square threshold of a point observation (2 dof, 95 %); also the Huber
+    /// threshold as `sqrt`; default 5.991 (ORB-SLAM2).
+    pub point_chi2: f64,
+    /// Chi-square threshold of a line observation; default 5.991: its two endpoint
+    /// distances are two pixel errors of the same sigma, 2 dof at 95 % as for points.
+    pub line_chi2: f64,
+}
+
+impl Default for PoseOptimizerConfig {
+    fn default() -> Self {
+        Self {
+            rounds: 4,
+            iterations_per_round: 10,
+            robust_rounds: 2,
+            point_chi2: CHI2_2DOF_95,
+            line_chi2: CHI2_2DOF_95,
+        }
+    }
+}
+
+/// Output of [`optimize_pose`]; reuse one value across frames to keep its buffers.
+#[derive(Clone, Debug, Default)]
+pub struct PoseResult {
+    /// The estimated `camera_from_world` (the last estimate when not converged).
+    pub camera_from_world: Isometry3<f64>,
+    /// Per point observation (same order as the input): inlier at the final pose.
+    pub point_inliers: Vec<bool>,
+    /// Per line observation (same order as the input): inlier at the final pose.
+    pub line_inliers: Vec<bool>,
+    /// Number of `true` in `point_inliers`.
+    pub num_point_inliers: usize,
+    /// Number of `true` in `line_inliers`.
+    pub num_line_inliers: usize,
+    /// RMS of the inliers' residual components (point u/v errors, line endpoint
+    /// distances), pixels, unweighted; 0 without inliers.
+    pub rms_error_px: f64,
+    /// LM iterations run over all rounds.
+    pub iterations: usize,
+    /// True when the last round's LM converged (small relative cost decrease or no
+    /// further decrease possible) with at least one inlier; false otherwise, with
+    /// the last estimate still in `camera_from_world` (the tracker may mark the frame
+    /// degraded).
+    pub converged: bool,
+}
+
+/// Relative cost decrease below which LM has converged.
+const RELATIVE_COST_TOLERANCE: f64 = 1e-9;
+/// Step norm below which LM has converged (metres / radians).
+const STEP_TOLERANCE: f64 = 1e-10;
+
+/// Optimises the pose of a frame against fixed map points and lines.
+///
+/// Starts from `initial_camera_from_world`, writes the pose, the inlier flags and the
+/// statistics into `result` (its vectors are reused). Never fails: observations behind
+/// the camera or with non-finite values are outliers, and with no usable observation the
+/// initial pose comes back with `converged == false`.
+pub fn optimize_pose(
+    camera: &PinholeCamera,
+    initial_camera_from_world: &Isometry3<f64>,
+    points: &[PointObservation],
+    lines: &[LineObservation],
+    config: &PoseOptimizerConfig,
+    result: &mut PoseResult,
+) {
+    let problem = PoseProblem {
+        camera,
+        points,
+        lines,
+        point_huber: Huber::from_chi2(config.point_chi2),
+        line_huber: Huber::from_chi2(config.line_chi2),
+    };
+    let mut pose = *initial_camera_from_world;
+    result.point_inliers.clear();
+    result.point_inliers.resize(points.len(), true);
+    result.line_inliers.clear();
+    result.line_inliers.resize(lines.len(), true);
+    result.iterations = 0;
+    result.converged = false;
+    // Every observation that can be evaluated starts as an inlier (ORB-SLAM2).
+    problem.classify(&pose, f64::INFINITY, f64::INFINITY, result);
+    for round in 0..config.rounds {
+        if result.num_point_inliers + result.num_line_inliers == 0 {
+            break;
+        }
+        let robust = round < config.robust_rounds;
+        let (estimate, iterations, converged) =
+            problem.run_lm(pose, result, robust, config.iterations_per_round);
+        pose = estimate;
+        result.iterations += iterations;
+        result.converged = converged;
+        problem.classify(&pose, config.point_chi2, config.line_chi2, result);
+    }
+    result.converged &= result.num_point_inliers + result.num_line_inliers > 0;
+    result.camera_from_world = pose;
+    result.rms_error_px = problem.inlier_rms(&pose, result);
+}
+
+/// The borrowed inputs of one pose optimisation.
+struct PoseProblem<'a> {
+    camera: &'a PinholeCamera,
+    points: &'a [PointObservation],
+    lines: &'a [LineObservation],
+    point_huber: Huber,
+    line_huber: Huber,
+}
+
+/// The normal equations of one linearisation.
+struct Normal {
+    h: Matrix6<f64>,
+    g: Vector6<f64>,
+    cost: f64,
+}
+
+impl PoseProblem<'_> {
+    fn point_error(&self, pose: &Isometry3<f64>, obs: &PointObservation) -> Option<Vector2<f64>> {
+        PointReprojection { uv: obs.uv }.error(self.camera, pose, &obs.point_in_world)
+    }
+
+    fn line_error(&self, pose: &Isometry3<f64>, obs: &LineObservation) -> Option<Vector2<f64>> {
+        LineReprojection { coeffs: obs.coeffs }.error(self.camera, pose, &obs.endpoints_in_world)
+    }
+
+    /// Marks every observation inlier / outlier by its chi-square at `pose` (invalid or
+    /// non-finite = outlier).
+    fn classify(
+        &self,
+        pose: &Isometry3<f64>,
+        point_chi2: f64,
+        line_chi2: f64,
+        result: &mut PoseResult,
+    ) {
+        let chi2 = |e: Option<Vector2<f64>>, info: f64| e.map(|e| info * e.norm_squared());
+        let is_inlier = |s: Option<f64>, threshold: f64| s.is_some_and(|s| s <= threshold);
+        for (flag, obs) in result.point_inliers.iter_mut().zip(self.points) {
+            *flag = is_inlier(
+                chi2(self.point_error(pose, obs), obs.inv_sigma2),
+                point_chi2,
+            ) && obs.inv_sigma2 > 0.0;
+        }
+        for (flag, obs) in result.line_inliers.iter_mut().zip(self.lines) {
+            *flag = is_inlier(chi2(self.line_error(pose, obs), obs.inv_sigma2), line_chi2)
+                && obs.inv_sigma2 > 0.0;
+        }
+        result.num_point_inliers = result.point_inliers.iter().filter(|&&f| f).count();
+        result.num_line_inliers = result.line_inliers.iter().filter(|&&f| f).count();
+    }
+
+    /// Robust cost of the active observations; `None` when one of them is not valid at
+    /// `pose` (a step that pushes an inlier behind the camera is rejected).
+    fn cost(&self, pose: &Isometry3<f64>, result: &PoseResult, robust: bool) -> Option<f64> {
+        let mut cost = 0.0;
+        for (obs, _) in self
+            .points
+            .iter()
+            .zip(&result.point_inliers)
+            .filter(|(_, f)| **f)
+        {
+            let s = obs.inv_sigma2 * self.point_error(pose, obs)?.norm_squared();
+            cost += if robust { self.point_huber.cost(s) } else { s };
+        }
+        for (obs, _) in self
+            .lines
+            .iter()
+            .zip(&result.line_inliers)
+            .filter(|(_, f)| **f)
+        {
+            let s = obs.inv_sigma2 * self.line_error(pose, obs)?.norm_squared();
+            cost += if robust { self.line_huber.cost(s) } else { s };
+        }
+        cost.is_finite().then_some(cost)
+    }
+
+    /// Builds `H = sum J^T w Omega J`, `g = sum J^T w Omega e` and the cost at `pose`.
+    fn linearize(&self, pose: &Isometry3<f64>, result: &PoseResult, robust: bool) -> Normal {
+        let mut n = Normal {
+            h: Matrix6::zeros(),
+            g: Vector6::zeros(),
+            cost: 0.0,
+        };
+        for (obs, _) in self
+            .points
+            .iter()
+            .zip(&result.point_inliers)
+            .filter(|(_, f)| **f)
+        {
+            let r = PointReprojection { uv: obs.uv };
+            let Some(lin) = r.linearize(self.camera, pose, &obs.point_in_world) else {
+                continue;
+            };
+            let s = obs.inv_sigma2 * lin.error.norm_squared();
+            let (cost, w) = if robust {
+                (self.point_huber.cost(s), self.point_huber.weight(s))
+            } else {
+                (s, 1.0)
+            };
+            let jt_w = lin.d_pose.transpose() * (w * obs.inv_sigma2);
+            n.h += jt_w * lin.d_pose;
+            n.g += jt_w * lin.error;
+            n.cost += cost;
+        }
+        for (obs, _) in self
+            .lines
+            .iter()
+            .zip(&result.line_inliers)
+            .filter(|(_, f)| **f)
+        {
+            let r = LineReprojection { coeffs: obs.coeffs };
+            let Some(lin) = r.linearize(self.camera, pose, &obs.endpoints_in_world) else {
+                continue;
+            };
+            let s = obs.inv_sigma2 * lin.error.norm_squared();
+            let (cost, w) = if robust {
+                (self.line_huber.cost(s), self.line_huber.weight(s))
+            } else {
+                (s, 1.0)
+            };
+            let jt_w = lin.d_pose.transpose() * (w * obs.inv_sigma2);
+            n.h += jt_w * lin.d_pose;
+            n.g += jt_w * lin.error;
+            n.cost += cost;
+        }
+        n
+    }
+
+    /// One round of LM over the current inliers; returns the estimate, the iterations
+    /// run and whether it converged.
+    fn run_lm(
+        &self,
+        mut pose: Isometry3<f64>,
+        result: &PoseResult,
+        robust: bool,
+        max_iterations: usize,
+    ) -> (Isometry3<f64>, usize, bool) {
+        let mut damping = Damping::new();
+        let mut normal = self.linearize(&pose, result, robust);
+        for iteration in 1..=max_iterations {
+            let mut step = None;
+            loop {
+                let mut a = normal.h;
+                let mut damping_diag = Vector6::zeros();
+                for k in 0..6 {
+                    damping_diag[k] = damping.diagonal_term(normal.h[(k, k)]);
+                    a[(k, k)] += damping_diag[k];
+                }
+                if let Some(cholesky) = a.cholesky() {
+                    let delta = -cholesky.solve(&normal.g);
+                    let candidate = retract(&pose, &delta);
+                    if let Some(cost) = self.cost(&candidate, result, robust)
+                        && cost < normal.cost
+                    {
+                        let predicted =
+                            delta.dot(&damping_diag.component_mul(&delta)) - normal.g.dot(&delta);
+                        damping.accept((normal.cost - cost) / predicted.max(f64::MIN_POSITIVE));
+                        step = Some((candidate, delta.norm(), cost));
+                        break;
+                    }
+                }
+                if !damping.reject() {
+                    break;
+                }
+            }
+            // No decrease at any damping: the estimate is a minimum to working precision.
+            let Some((candidate, step_norm, cost)) = step else {
+                return (pose, iteration, true);
+            };
+            let decrease = normal.cost - cost;
+            pose = candidate;
+            if step_norm < STEP_TOLERANCE || decrease <= RELATIVE_COST_TOLERANCE * normal.cost {
+                return (pose, iteration, true);
+            }
+            normal = self.linearize(&pose, result, robust);
+        }
+        (pose, max_iterations, false)
+    }
+
+    fn inlier_rms(&self, pose: &Isometry3<f64>, result: &PoseResult) -> f64 {
+        let mut sum = 0.0;
+        let mut components = 0usize;
+        for (obs, _) in self
+            .points
+            .iter()
+            .zip(&result.point_inliers)
+            .filter(|(_, f)| **f)
+        {
+            if let Some(e) = self.point_error(pose, obs) {
+                sum += e.norm_squared();
+                components += 2;
+            }
+        }
+        for (obs, _) in self
+            .lines
+            .iter()
+            .zip(&result.line_inliers)
+            .filter(|(_, f)| **f)
+        {
+            if let Some(e) = self.line_error(pose, obs) {
+                sum += e.norm_squared();
+                components += 2;
+            }
+        }
+        if components == 0 {
+            0.0
+        } else {
+            (sum / components as f64).sqrt()
+        }
+    }
+}

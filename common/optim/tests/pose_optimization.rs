@@ -1,0 +1,232 @@
+//! Pose optimisation on a synthetic frame: 300 points and 60 lines, 1 px noise, 20 %
+//! outliers, initial pose 10 cm / 5 deg off.
+
+mod common;
+
+use common::{
+    Rng, axis_line, camera, line_through, observe_line, perturb, point_at_pixel, pose_error,
+    project,
+};
+use gfs_core::camera::PinholeCamera;
+use gfs_optim::{
+    LineObservation, PointObservation, PoseOptimizerConfig, PoseResult, optimize_pose,
+};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector2, Vector3};
+
+/// A frame's observations with the truth about which are outliers.
+pub struct Frame {
+    pub points: Vec<PointObservation>,
+    pub lines: Vec<LineObservation>,
+    pub point_outlier: Vec<bool>,
+    pub line_outlier: Vec<bool>,
+}
+
+fn random_pixel(rng: &mut Rng) -> Vector2<f64> {
+    Vector2::new(rng.uniform(10.0, 629.0), rng.uniform(10.0, 469.0))
+}
+
+/// 300 points and 60 axis-aligned lines in view of `truth`, with outliers.
+fn synthetic_frame(
+    camera: &PinholeCamera,
+    truth: &Isometry3<f64>,
+    outlier_ratio: f64,
+    rng: &mut Rng,
+) -> Frame {
+    let mut frame = Frame {
+        points: Vec::new(),
+        lines: Vec::new(),
+        point_outlier: Vec::new(),
+        line_outlier: Vec::new(),
+    };
+    while frame.points.len() < 300 {
+        let uv = random_pixel(rng);
+        let p_w = point_at_pixel(camera, truth, uv, rng.uniform(1.0, 6.0));
+        let outlier = rng.uniform(0.0, 1.0) < outlier_ratio;
+        let observed = if outlier {
+            let mut wrong = random_pixel(rng);
+            while (wrong - uv).norm() < 20.0 {
+                wrong = random_pixel(rng);
+            }
+            wrong
+        } else {
+            uv + Vector2::new(rng.gaussian(), rng.gaussian())
+        };
+        frame.points.push(PointObservation {
+            point_in_world: p_w,
+            uv: observed,
+            inv_sigma2: 1.0,
+        });
+        frame.point_outlier.push(outlier);
+    }
+    while frame.lines.len() < 60 {
+        let centre = point_at_pixel(camera, truth, random_pixel(rng), rng.uniform(1.5, 5.0));
+        let line = axis_line(centre, frame.lines.len() % 3, rng.uniform(0.3, 1.2));
+        let Some(coeffs) = observe_line(camera, truth, &line, 1.0, rng) else {
+            continue;
+        };
+        let outlier = rng.uniform(0.0, 1.0) < outlier_ratio;
+        let coeffs = if outlier {
+            // A random image line that passes at least 20 px from the true endpoints.
+            let ends = [
+                project(camera, truth, &line[0]),
+                project(camera, truth, &line[1]),
+            ];
+            loop {
+                let c = line_through(random_pixel(rng), random_pixel(rng));
+                let far = ends
+                    .iter()
+                    .flatten()
+                    .any(|e| (c.x * e.x + c.y * e.y + c.z).abs() > 20.0);
+                if far {
+                    break c;
+                }
+            }
+        } else {
+            coeffs
+        };
+        frame.lines.push(LineObservation {
+            endpoints_in_world: line,
+            coeffs,
+            inv_sigma2: 1.0,
+        });
+        frame.line_outlier.push(outlier);
+    }
+    frame
+}
+
+fn true_pose() -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::new(0.3, -0.2, 0.5),
+        UnitQuaternion::from_scaled_axis(Vector3::new(0.1, -0.3, 0.05)),
+    )
+}
+
+/// Fractions of the true outliers flagged outlier and of the true inliers kept.
+fn flag_rates(flags: &[bool], outlier: &[bool]) -> (f64, f64) {
+    let count = |want_outlier: bool| {
+        let total = outlier.iter().filter(|&&o| o == want_outlier).count();
+        let right = flags
+            .iter()
+            .zip(outlier)
+            .filter(|&(&inlier, &o)| o == want_outlier && inlier != o)
+            .count();
+        right as f64 / total.max(1) as f64
+    };
+    (count(true), count(false))
+}
+
+#[test]
+fn recovers_the_pose_and_flags_outliers() {
+    let camera = camera();
+    let mut result = PoseResult::default();
+    let config = PoseOptimizerConfig::default();
+    for seed in 0..5 {
+        let mut rng = Rng::new(100 + seed);
+        let truth = true_pose();
+        let frame = synthetic_frame(&camera, &truth, 0.2, &mut rng);
+        let initial = perturb(&truth, 0.10, 5f64.to_radians(), &mut rng);
+        optimize_pose(
+            &camera,
+            &initial,
+            &frame.points,
+            &frame.lines,
+            &config,
+            &mut result,
+        );
+        let (dt, dr) = pose_error(&result.camera_from_world, &truth);
+        let (point_out, point_in) = flag_rates(&result.point_inliers, &frame.point_outlier);
+        let (line_out, line_in) = flag_rates(&result.line_inliers, &frame.line_outlier);
+        println!(
+            "seed {seed}: error {:.2} mm {:.3} deg, outliers flagged: points {:.1} % lines {:.1} %, \
+             inliers kept: points {:.1} % lines {:.1} %, rms {:.3} px, {} iterations, converged {}",
+            dt * 1e3,
+            dr,
+            point_out * 100.0,
+            line_out * 100.0,
+            point_in * 100.0,
+            line_in * 100.0,
+            result.rms_error_px,
+            result.iterations,
+            result.converged
+        );
+        assert!(dt < 0.01, "seed {seed}: translation error {dt} m");
+        assert!(dr < 0.2, "seed {seed}: rotation error {dr} deg");
+        // Every outlier is at least 20 px off: all must be caught.
+        assert!(
+            point_out >= 0.95 && line_out >= 0.95,
+            "seed {seed}: outliers {point_out} {line_out}"
+        );
+        // The chi-square test at 95 % drops about 5 % of true 1 px inliers by design.
+        assert!(
+            point_in >= 0.9 && line_in >= 0.9,
+            "seed {seed}: inliers {point_in} {line_in}"
+        );
+        assert!(result.converged);
+        assert!(result.rms_error_px < 1.5, "rms {}", result.rms_error_px);
+    }
+}
+
+#[test]
+fn lines_alone_constrain_the_pose() {
+    let camera = camera();
+    let mut rng = Rng::new(7);
+    let truth = true_pose();
+    let frame = synthetic_frame(&camera, &truth, 0.0, &mut rng);
+    let initial = perturb(&truth, 0.05, 2f64.to_radians(), &mut rng);
+    let mut result = PoseResult::default();
+    optimize_pose(
+        &camera,
+        &initial,
+        &[],
+        &frame.lines,
+        &PoseOptimizerConfig::default(),
+        &mut result,
+    );
+    let (dt, dr) = pose_error(&result.camera_from_world, &truth);
+    println!(
+        "lines only: {:.2} mm {:.3} deg, {} inliers",
+        dt * 1e3,
+        dr,
+        result.num_line_inliers
+    );
+    assert!(dt < 0.02 && dr < 0.3, "{dt} m {dr} deg");
+    assert!(result.num_line_inliers >= 57);
+}
+
+#[test]
+fn no_observations_returns_the_initial_pose_unconverged() {
+    let camera = camera();
+    let initial = true_pose();
+    let mut result = PoseResult::default();
+    optimize_pose(
+        &camera,
+        &initial,
+        &[],
+        &[],
+        &PoseOptimizerConfig::default(),
+        &mut result,
+    );
+    assert_eq!(result.camera_from_world, initial);
+    assert!(!result.converged);
+    assert_eq!(result.rms_error_px, 0.0);
+    // A point behind the camera and a NaN observation are outliers, not panics.
+    let behind = PointObservation {
+        point_in_world: (initial.inverse() * nalgebra::Point3::new(0.0, 0.0, -2.0)).coords,
+        uv: Vector2::new(320.0, 240.0),
+        inv_sigma2: 1.0,
+    };
+    let nan = PointObservation {
+        uv: Vector2::new(f64::NAN, 1.0),
+        ..behind
+    };
+    optimize_pose(
+        &camera,
+        &initial,
+        &[behind, nan],
+        &[],
+        &PoseOptimizerConfig::default(),
+        &mut result,
+    );
+    assert_eq!(result.point_inliers, vec![false, false]);
+    assert!(!result.converged);
+}
