@@ -72,12 +72,11 @@ impl GradientField<'_> {
     /// Integer pixel nearest to (u, v) when it lies inside the image.
     #[inline]
     fn pixel(&self, u: f32, v: f32) -> Option<(usize, usize)> {
-        let (x, y) = (u.round(), v.round());
-        let inside = x >= 0.0
-            && y >= 0.0
-            && (x as usize) < self.magnitude.width()
-            && (y as usize) < self.magnitude.height();
-        inside.then_some((x as usize, y as usize))
+        if !(u >= -0.5 && v >= -0.5) {
+            return None;
+        }
+        let (x, y) = ((u + 0.5) as usize, (v + 0.5) as usize);
+        (x < self.magnitude.width() && y < self.magnitude.height()).then_some((x, y))
     }
 
     /// Mean magnitude at the pixels along the segment (one sample per pixel of length).
@@ -111,7 +110,8 @@ impl GradientField<'_> {
             return false;
         }
         let (gx, gy) = (f32::from(self.gx.at(x, y)), f32::from(self.gy.at(x, y)));
-        gx * normal[0] + gy * normal[1] >= cos_tolerance * gx.hypot(gy)
+        let dot = gx * normal[0] + gy * normal[1];
+        dot > 0.0 && dot * dot >= cos_tolerance * cos_tolerance * (gx * gx + gy * gy)
     }
 }
 
@@ -140,6 +140,7 @@ impl GradientField<'_> {
 #[derive(Debug, Default)]
 pub(crate) struct JoinScratch {
     alive: Vec<bool>,
+    geometry: Vec<Geometry>,
 }
 
 /// Extends then merges `lines` in place (see the module doc); longest first on return.
@@ -220,7 +221,10 @@ fn refine_endpoints(s: &mut Segment, field: &GradientField<'_>) {
     let mut sum = 0.0;
     for i in 0..samples {
         let t = i as f32 + 0.5;
-        sum += field.normal_component(s.start[0] + t * dir[0], s.start[1] + t * dir[1], normal);
+        if let Some((x, y)) = field.pixel(s.start[0] + t * dir[0], s.start[1] + t * dir[1]) {
+            sum +=
+                f32::from(field.gx.at(x, y)) * normal[0] + f32::from(field.gy.at(x, y)) * normal[1];
+        }
     }
     let half = 0.5 * sum / samples as f32;
     if half <= 0.0 {
@@ -259,25 +263,62 @@ fn refine_endpoints(s: &mut Segment, field: &GradientField<'_>) {
     }
 }
 
+/// Length and unit direction of a segment, cached for the pairwise merge tests.
+#[derive(Clone, Copy, Debug, Default)]
+struct Geometry {
+    len: f32,
+    dir: [f32; 2],
+}
+
+impl Geometry {
+    fn of(s: &Segment) -> Self {
+        let len = s.length();
+        let dir = if len > f32::EPSILON {
+            [(s.end[0] - s.start[0]) / len, (s.end[1] - s.start[1]) / len]
+        } else {
+            [0.0; 2]
+        };
+        Self { len, dir }
+    }
+}
+
+/// Squared length: a sort key without a square root.
+fn length2(s: &Segment) -> f32 {
+    let (du, dv) = (s.end[0] - s.start[0], s.end[1] - s.start[1]);
+    du * du + dv * dv
+}
+
 /// Merges collinear pieces until nothing changes; sorts `lines` longest first.
 fn merge(config: &JoinConfig, lines: &mut Vec<DetectedLine>, scratch: &mut JoinScratch) {
-    lines.sort_by(|p, q| q.segment.length().total_cmp(&p.segment.length()));
-    let alive = &mut scratch.alive;
+    lines.sort_by(|p, q| length2(&q.segment).total_cmp(&length2(&p.segment)));
+    let JoinScratch { alive, geometry } = scratch;
     alive.clear();
     alive.resize(lines.len(), true);
+    geometry.clear();
+    geometry.extend(lines.iter().map(|l| Geometry::of(&l.segment)));
     let cos_angle = config.merge_angle_deg.clamp(0.0, 90.0).to_radians().cos();
     for i in 0..lines.len() {
-        if !alive[i] {
+        if !alive[i] || geometry[i].len <= f32::EPSILON {
             continue;
         }
         let mut changed = true;
         while changed {
             changed = false;
             for j in i + 1..lines.len() {
-                if !alive[j] || !mergeable(config, cos_angle, &lines[i], &lines[j]) {
+                if !alive[j]
+                    || !mergeable(
+                        config,
+                        cos_angle,
+                        &lines[i],
+                        &geometry[i],
+                        &lines[j],
+                        &geometry[j],
+                    )
+                {
                     continue;
                 }
                 lines[i] = merged(&lines[i], &lines[j]);
+                geometry[i] = Geometry::of(&lines[i].segment);
                 alive[j] = false;
                 changed = true;
             }
@@ -288,7 +329,7 @@ fn merge(config: &JoinConfig, lines: &mut Vec<DetectedLine>, scratch: &mut JoinS
         k += 1;
         alive[k - 1]
     });
-    lines.sort_by(|p, q| q.segment.length().total_cmp(&p.segment.length()));
+    lines.sort_by(|p, q| length2(&q.segment).total_cmp(&length2(&p.segment)));
 }
 
 /// Whether `short` continues `long` (see the module doc for the three gates).
@@ -296,27 +337,24 @@ fn mergeable(
     config: &JoinConfig,
     cos_angle: f32,
     long: &DetectedLine,
+    gl: &Geometry,
     short: &DetectedLine,
+    gs: &Geometry,
 ) -> bool {
     let (p, q) = (&long.segment, &short.segment);
-    let (lp, lq) = (p.length(), q.length());
-    if lp <= f32::EPSILON || lq <= f32::EPSILON {
-        return false;
-    }
-    let dp = [(p.end[0] - p.start[0]) / lp, (p.end[1] - p.start[1]) / lp];
-    let dq = [(q.end[0] - q.start[0]) / lq, (q.end[1] - q.start[1]) / lq];
+    let (dp, dq) = (gl.dir, gs.dir);
     // Oriented directions: same polarity and nearly the same angle.
-    if dp[0] * dq[0] + dp[1] * dq[1] < cos_angle {
+    if gs.len <= f32::EPSILON || dp[0] * dq[0] + dp[1] * dq[1] < cos_angle {
         return false;
     }
-    let [a, b, c] = p.line_coefficients();
-    let offset = |e: [f32; 2]| (a * e[0] + b * e[1] + c).abs();
+    // Signed distance to the long segment's line (normal as `line_coefficients`).
+    let offset = |e: [f32; 2]| ((e[0] - p.start[0]) * dp[1] - (e[1] - p.start[1]) * dp[0]).abs();
     if offset(q.start) > config.merge_offset || offset(q.end) > config.merge_offset {
         return false;
     }
     let along = |e: [f32; 2]| (e[0] - p.start[0]) * dp[0] + (e[1] - p.start[1]) * dp[1];
     let (t0, t1) = (along(q.start), along(q.end));
-    let gap = (t0.min(t1) - lp).max(-t0.max(t1));
+    let gap = (t0.min(t1) - gl.len).max(-t0.max(t1));
     gap <= config.merge_gap
 }
 

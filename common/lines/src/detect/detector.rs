@@ -39,6 +39,7 @@ pub struct LineDetector {
     smooth: Image<u8>,
     gradients: Gradients,
     anchors: Vec<u64>,
+    anchor_flags: Vec<u8>,
     chains: Chains,
     fitter: Fitter,
     fitted: Vec<[f32; 4]>,
@@ -55,6 +56,7 @@ impl LineDetector {
             smooth: Image::new(0, 0),
             gradients: Gradients::new(),
             anchors: Vec::new(),
+            anchor_flags: Vec::new(),
             chains: Chains::default(),
             fitter: Fitter::default(),
             fitted: Vec::new(),
@@ -94,6 +96,7 @@ impl LineDetector {
             &self.gradients.state,
             cfg.anchor_threshold,
             cfg.scan_interval,
+            &mut self.anchor_flags,
             &mut self.anchors,
         );
         draw_edges(

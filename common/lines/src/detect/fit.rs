@@ -86,7 +86,7 @@ impl Moments {
         } else {
             (c, d)
         };
-        let norm = vx.hypot(vy);
+        let norm = (vx * vx + vy * vy).sqrt();
         if norm <= 1e-12 {
             return None;
         }
@@ -141,9 +141,28 @@ impl Fitter {
         let mag = magnitude.as_slice();
         let st = state.as_slice();
         self.points.clear();
+        let Some(&first) = chain.first() else {
+            return;
+        };
+        // Consecutive chain pixels are 8-neighbours: track (u, v) from the index steps
+        // instead of dividing by the width at every pixel.
+        let w_signed = w as i64;
+        let (mut u, mut v) = ((first as usize % w) as i64, (first as usize / w) as i64);
+        let mut previous = i64::from(first);
         self.points.extend(chain.iter().map(|&i| {
+            let step = i64::from(i) - previous;
+            previous = i64::from(i);
+            let dv = if step > 1 {
+                1
+            } else if step < -1 {
+                -1
+            } else {
+                0
+            };
+            v += dv;
+            u += step - dv * w_signed;
             let i = i as usize;
-            let (u, v) = ((i % w) as f64, (i / w) as f64);
+            let (u, v) = (u as f64, v as f64);
             // Chain pixels are interior, so both neighbours across the edge exist.
             let horizontal = st[i] & ORIENTATION == HORIZONTAL;
             let step = if horizontal { w } else { 1 };

@@ -46,12 +46,27 @@ impl Gradients {
         self.gy.resize(w, h);
         self.magnitude.resize(w, h);
         self.state.resize(w, h);
-        self.gx.fill(0);
-        self.gy.fill(0);
-        self.magnitude.fill(0);
-        self.state.fill(NONE);
         if w < 3 || h < 3 {
+            self.gx.fill(0);
+            self.gy.fill(0);
+            self.magnitude.fill(0);
+            self.state.fill(NONE);
             return;
+        }
+        // The interior is overwritten below: only the border needs clearing.
+        for y in [0, h - 1] {
+            self.gx.row_mut(y).fill(0);
+            self.gy.row_mut(y).fill(0);
+            self.magnitude.row_mut(y).fill(0);
+            self.state.row_mut(y).fill(NONE);
+        }
+        for y in 1..h - 1 {
+            for x in [0, w - 1] {
+                self.gx.set(x, y, 0);
+                self.gy.set(x, y, 0);
+                self.magnitude.set(x, y, 0);
+                self.state.set(x, y, NONE);
+            }
         }
         let threshold = threshold.max(1);
         for y in 1..h - 1 {

@@ -120,27 +120,31 @@ pub(crate) fn validate(
     }
     let (tu, tv) = (du / len, dv / len);
     let (nu, nv) = (tv, -tu);
+    let cos2 = cos_tolerance * cos_tolerance;
     let n = len as usize + 1;
     let (mut along, mut against) = (0usize, 0usize);
     for s in 0..n {
         let (u, v) = (seg[0] + s as f32 * tu, seg[1] + s as f32 * tv);
-        // The 2x2 window whose centre is nearest to (u, v).
-        let x = ((u - 0.5).round().max(0.0) as usize).min(w - 2);
-        let y = ((v - 0.5).round().max(0.0) as usize).min(h - 2);
+        // The 2x2 window (x..x+1, y..y+1) whose centre is nearest: x = floor(u).
+        let x = (u.max(0.0) as usize).min(w - 2);
+        let y = (v.max(0.0) as usize).min(h - 2);
         let (r0, r1) = (gray.row(y), gray.row(y + 1));
         let (a, b) = (f32::from(r0[x]), f32::from(r0[x + 1]));
         let (c, d) = (f32::from(r1[x]), f32::from(r1[x + 1]));
         let gx = 0.5 * (b + d - a - c);
         let gy = 0.5 * (c + d - a - b);
-        let norm = gx.hypot(gy);
-        if norm < MIN_GRADIENT_NORM {
+        let norm2 = gx * gx + gy * gy;
+        if norm2 < MIN_GRADIENT_NORM * MIN_GRADIENT_NORM {
             continue;
         }
+        // |cos(angle to the normal)| >= cos_tolerance, without a square root.
         let dot = gx * nu + gy * nv;
-        if dot >= cos_tolerance * norm {
-            along += 1;
-        } else if -dot >= cos_tolerance * norm {
-            against += 1;
+        if dot * dot >= cos2 * norm2 {
+            if dot > 0.0 {
+                along += 1;
+            } else {
+                against += 1;
+            }
         }
     }
     let k = along.max(against);
