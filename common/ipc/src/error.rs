@@ -18,7 +18,7 @@ pub enum IpcError {
     /// A run id, topic or node name is not usable as an iceoryx2 name.
     #[error("invalid {what} {value:?}: {reason}")]
     InvalidName {
-        /// Which kind of name ("run id", "service name", "node name", "root path", "prefix").
+        /// Which kind of name ("run id", "service name", "node name", "prefix").
         what: &'static str,
         /// The rejected value.
         value: String,
@@ -119,5 +119,15 @@ pub enum IpcError {
         /// What went wrong.
         #[source]
         source: FrameError,
+    },
+    /// The wake-up event of a topic (notifier / listener) failed.
+    #[error("topic {topic}: wake-up {what} failed: {reason}")]
+    Wakeup {
+        /// Full service name.
+        topic: String,
+        /// The failed step ("event service", "notifier", "listener", "notify", "wait").
+        what: &'static str,
+        /// iceoryx2 reason (debug text of its error enum).
+        reason: String,
     },
 }

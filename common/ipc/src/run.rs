@@ -1,13 +1,16 @@
-//! Run isolation: every run (a `gfsvo run`, a test) gets its own iceoryx2 file prefix and
-//! root directory, so two runs on one machine never see each other's services or nodes,
-//! and "is anything of this run left?" is a directory listing.
+//! Run isolation: every run (a `gfsvo run`, a test) gets its own iceoryx2 file prefix,
+//! so two runs on one machine never see each other's services or nodes, and "is anything
+//! of this run left?" is a directory listing.
 //!
-//! iceoryx2 0.10 names every shared-memory object `/dev/shm/<prefix>...` and every file
-//! `<root>/{nodes,services}/<prefix>...`, where `<prefix>` is `Config::global.prefix` and
-//! `<root>` is `Config::global.root_path()` (default `iox2_` and `/tmp/iceoryx2/`). A run
-//! uses prefix `gfsvo_<run-id>_` and root `/tmp/iceoryx2/gfsvo_<run-id>/`; its service
-//! names are additionally `gfsvo/<run-id>/<topic>` so that logs say which run they are
-//! about.
+//! iceoryx2 0.10 names every shared-memory object `/dev/shm/<prefix>...`, every file
+//! `<root>/{nodes,services}/<prefix>...` and every event socket `<root><prefix>...`, where
+//! `<prefix>` is `Config::global.prefix` (default `iox2_`) and `<root>` the root path
+//! (default `/tmp/iceoryx2/`). A run uses prefix `gfsvo_<run-id>_` under the default
+//! root. A per-run root directory would be tidier but does not fit: event sockets are
+//! Unix datagram sockets whose whole path (root + prefix + 39-digit listener id +
+//! `.event`) must fit the 107 bytes of `sun_path`, which is also why run ids are at most
+//! 32 characters. Service names are additionally `gfsvo/<run-id>/<topic>` so that logs
+//! say which run they are about.
 
 use std::path::{Path, PathBuf};
 
@@ -30,11 +33,12 @@ pub const IPC_ROOT: &str = "/tmp/iceoryx2";
 /// Directory holding POSIX shared-memory objects on Linux.
 pub const SHM_DIR: &str = "/dev/shm";
 
-/// Longest run id: keeps every iceoryx2 file name (prefix + 32-char hash + suffix) far
-/// below the 255-byte file-name limit.
-pub const MAX_RUN_ID_LEN: usize = 48;
+/// Longest run id: the longest event socket path, `/tmp/iceoryx2/gfsvo_<id>_<39 digits>.event`,
+/// then stays within the 107 usable bytes of a Unix socket path (98 bytes).
+pub const MAX_RUN_ID_LEN: usize = 32;
 
-/// The id of one run: 1..=48 characters of `[A-Za-z0-9_-]`.
+/// The id of one run: 1..=32 characters of `[A-Za-z0-9-]`. No `_`: the run's file prefix
+/// `gfsvo_<id>_` then never is the beginning of another run's prefix.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct RunId(String);
 
@@ -43,7 +47,7 @@ impl RunId {
     ///
     /// # Errors
     /// [`IpcError::InvalidName`] when empty, longer than [`MAX_RUN_ID_LEN`] or holding a
-    /// character outside `[A-Za-z0-9_-]`.
+    /// character outside `[A-Za-z0-9-]`.
     pub fn new(id: &str) -> Result<Self, IpcError> {
         let invalid = |reason: &str| IpcError::InvalidName {
             what: "run id",
@@ -51,24 +55,22 @@ impl RunId {
             reason: reason.to_string(),
         };
         if id.is_empty() || id.len() > MAX_RUN_ID_LEN {
-            return Err(invalid("length must be 1..=48"));
+            return Err(invalid("length must be 1..=32"));
         }
-        if !id
-            .bytes()
-            .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-')
-        {
-            return Err(invalid("only [A-Za-z0-9_-] are allowed"));
+        if !id.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-') {
+            return Err(invalid("only [A-Za-z0-9-] are allowed"));
         }
         Ok(Self(id.to_string()))
     }
 
-    /// A run id unique on this machine: `<tag>-<pid>-<monotonic ns>` (tag truncated so the
-    /// whole fits [`MAX_RUN_ID_LEN`]). For tests and for `gfsvo run` without `--run-id`.
+    /// A run id unique on this machine: `<tag>-<pid>-<monotonic ns in hex>` (tag
+    /// truncated so the whole fits [`MAX_RUN_ID_LEN`]). For tests and for `gfsvo run`
+    /// without an explicit id.
     ///
     /// # Errors
-    /// [`IpcError::InvalidName`] when `tag` holds a character outside `[A-Za-z0-9_-]`.
+    /// [`IpcError::InvalidName`] when `tag` holds a character outside `[A-Za-z0-9-]`.
     pub fn unique(tag: &str) -> Result<Self, IpcError> {
-        let suffix = format!("-{}-{}", std::process::id(), crate::monotonic_ns());
+        let suffix = format!("-{}-{:x}", std::process::id(), crate::monotonic_ns());
         let keep = MAX_RUN_ID_LEN.saturating_sub(suffix.len()).min(tag.len());
         let tag = tag.get(..keep).unwrap_or("run");
         Self::new(&format!("{tag}{suffix}"))
@@ -132,12 +134,12 @@ pub struct IpcRun {
 }
 
 impl IpcRun {
-    /// The setting for `run_id`: default iceoryx2 config with prefix `gfsvo_<run-id>_`
-    /// and root `/tmp/iceoryx2/gfsvo_<run-id>/`. Nothing is created on disk yet.
+    /// The setting for `run_id`: default iceoryx2 config (root `/tmp/iceoryx2/`) with
+    /// prefix `gfsvo_<run-id>_`. Nothing is created on disk yet.
     ///
     /// # Errors
-    /// [`IpcError::InvalidName`] if iceoryx2 rejects the prefix or path (cannot happen
-    /// for a valid [`RunId`], but iceoryx2 checks its own rules).
+    /// [`IpcError::InvalidName`] if iceoryx2 rejects the prefix (cannot happen for a
+    /// valid [`RunId`], but iceoryx2 checks its own rules).
     pub fn new(run_id: RunId) -> Result<Self, IpcError> {
         let mut config = Config::default();
         let prefix = prefix_of(&run_id);
@@ -147,14 +149,6 @@ impl IpcRun {
                 value: prefix.clone(),
                 reason: format!("{e:?}"),
             })?;
-        let root = format!("{}/", root_of(&run_id).display());
-        let root_path =
-            iceoryx2::prelude::Path::new(root.as_bytes()).map_err(|e| IpcError::InvalidName {
-                what: "root path",
-                value: root.clone(),
-                reason: format!("{e:?}"),
-            })?;
-        config.global.set_root_path(&root_path);
         Ok(Self { run_id, config })
     }
 
@@ -171,11 +165,6 @@ impl IpcRun {
     /// The file-name prefix of every iceoryx2 object of the run.
     pub fn file_prefix(&self) -> String {
         prefix_of(&self.run_id)
-    }
-
-    /// The root directory of the run's iceoryx2 files.
-    pub fn root_dir(&self) -> PathBuf {
-        root_of(&self.run_id)
     }
 
     /// The service name of `topic` in this run: `gfsvo/<run-id>/<topic>`.
@@ -283,32 +272,24 @@ impl IpcRun {
         Ok(report)
     }
 
-    /// Every iceoryx2 file or shared-memory object of this run that still exists: entries
-    /// of [`SHM_DIR`] starting with the run's prefix and files (not directories) under
-    /// [`Self::root_dir`]. Empty after a clean shutdown or a complete dead-node cleanup.
+    /// Every iceoryx2 file or shared-memory object of this run that still exists: the
+    /// entries of [`SHM_DIR`] and of [`IPC_ROOT`] (recursively) whose name starts with
+    /// the run's prefix. Empty after [`Self::finish`] of a clean or cleaned-up run.
     pub fn leftovers(&self) -> Vec<PathBuf> {
         let prefix = self.file_prefix();
         let mut out = Vec::new();
-        if let Ok(entries) = std::fs::read_dir(SHM_DIR) {
-            for entry in entries.flatten() {
-                if entry.file_name().to_string_lossy().starts_with(&prefix) {
-                    out.push(entry.path());
-                }
-            }
-        }
-        collect_files(&self.root_dir(), &mut out);
+        collect_prefixed(Path::new(SHM_DIR), &prefix, &mut out);
+        collect_prefixed(Path::new(IPC_ROOT), &prefix, &mut out);
         out.sort();
         out
     }
 
     /// Ends the run's iceoryx2 domain once no process of the run is alive any more
     /// (all stages exited or were killed and [`Self::cleanup_dead_nodes`] ran): removes
-    /// the domain's node-counter segment `/dev/shm/<prefix>…_node.<version>.global_mgmt`
-    /// (iceoryx2 0.10 keeps it for the lifetime of the domain; no node removes it) and
-    /// the root directory when it holds no file (iceoryx2 leaves its empty `nodes/` and
-    /// `services/` behind). Returns [`Self::leftovers`] afterwards: empty after a clean
-    /// run. Calling it while a process of the run is alive breaks that process's node
-    /// ids.
+    /// the domain's node-counter segment `/dev/shm/<prefix>…_node.<version>.global_mgmt`,
+    /// which iceoryx2 0.10 keeps for the lifetime of the domain (no node removes it).
+    /// Returns [`Self::leftovers`] afterwards: empty after a clean run. Calling it while
+    /// a process of the run is alive breaks that process's node ids.
     pub fn finish(&self) -> Vec<PathBuf> {
         let prefix = self.file_prefix();
         if let Ok(entries) = std::fs::read_dir(SHM_DIR) {
@@ -322,15 +303,6 @@ impl IpcRun {
                 }
             }
         }
-        let root = self.root_dir();
-        let mut files = Vec::new();
-        collect_files(&root, &mut files);
-        if files.is_empty()
-            && root.exists()
-            && let Err(e) = std::fs::remove_dir_all(&root)
-        {
-            tracing::warn!(run = %self.run_id, "cannot remove {}: {e}", root.display());
-        }
         self.leftovers()
     }
 }
@@ -342,20 +314,17 @@ fn prefix_of(run_id: &RunId) -> String {
     format!("gfsvo_{run_id}_")
 }
 
-fn root_of(run_id: &RunId) -> PathBuf {
-    Path::new(IPC_ROOT).join(format!("gfsvo_{run_id}"))
-}
-
-/// Appends every non-directory entry below `dir` (recursively) to `out`.
-fn collect_files(dir: &Path, out: &mut Vec<PathBuf>) {
+/// Appends every entry below `dir` (recursively) whose name starts with `prefix`.
+fn collect_prefixed(dir: &Path, prefix: &str, out: &mut Vec<PathBuf>) {
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
     };
     for entry in entries.flatten() {
         let path = entry.path();
-        match entry.file_type() {
-            Ok(t) if t.is_dir() => collect_files(&path, out),
-            _ => out.push(path),
+        if entry.file_name().to_string_lossy().starts_with(prefix) {
+            out.push(path);
+        } else if entry.file_type().is_ok_and(|t| t.is_dir()) {
+            collect_prefixed(&path, prefix, out);
         }
     }
 }
@@ -366,10 +335,11 @@ mod tests {
 
     #[test]
     fn run_ids_are_checked() {
-        assert!(RunId::new("bench-1_a").is_ok());
+        assert!(RunId::new("bench-1a").is_ok());
         assert!(RunId::new("").is_err());
         assert!(RunId::new("a/b").is_err());
-        assert!(RunId::new(&"x".repeat(49)).is_err());
+        assert!(RunId::new("a_b").is_err());
+        assert!(RunId::new(&"x".repeat(33)).is_err());
         let long = RunId::unique(&"t".repeat(100)).unwrap();
         assert!(long.as_str().len() <= MAX_RUN_ID_LEN);
         assert_ne!(RunId::unique("t").unwrap(), RunId::unique("t").unwrap());
@@ -379,7 +349,10 @@ mod tests {
     fn names_carry_the_run() {
         let run = IpcRun::new(RunId::new("r1").unwrap()).unwrap();
         assert_eq!(run.file_prefix(), "gfsvo_r1_");
-        assert_eq!(run.root_dir(), PathBuf::from("/tmp/iceoryx2/gfsvo_r1"));
+        assert_eq!(
+            run.config().global.root_path().as_bytes(),
+            b"/tmp/iceoryx2/"
+        );
         assert_eq!(
             run.service_name("frame").unwrap().as_str(),
             "gfsvo/r1/frame"

@@ -4,9 +4,17 @@
 //! of a plain `#[repr(C)]` type and whose user header is [`MsgHeader`]: frames are
 //! `[u8]` (see [`crate::frame`]), features are slices of feature structs, variable
 //! messages are bincode `[u8]` (see [`crate::codec`]).
+//!
+//! Beside the publish/subscribe service, every topic has an iceoryx2 *event* service of
+//! the same name: the publisher notifies it after each send and the subscriber can sleep
+//! in [`TopicSubscriber::wait`] until then, instead of polling (publish/subscribe alone
+//! has no blocking receive).
 
 use std::fmt::Debug;
+use std::time::Duration;
 
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::port::update_connections::UpdateConnections;
@@ -14,6 +22,7 @@ use iceoryx2::prelude::{Alignment, AllocationStrategy, Node, ZeroCopySend};
 use iceoryx2::sample::Sample;
 use iceoryx2::sample_mut::SampleMut;
 use iceoryx2::service::Service;
+use iceoryx2::service::port_factory::event::PortFactory as EventService;
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
 
 use crate::error::IpcError;
@@ -68,10 +77,35 @@ fn open_service<S: Service, T: Debug + ZeroCopySend + 'static>(
     Ok((full, service))
 }
 
+fn open_event<S: Service>(
+    run: &IpcRun,
+    node: &Node<S>,
+    topic: &str,
+    qos: &TopicQos,
+) -> Result<EventService<S>, IpcError> {
+    let name = run.service_name(topic)?;
+    node.service_builder(&name)
+        .event()
+        .max_notifiers(qos.max_publishers)
+        .max_listeners(qos.max_subscribers)
+        .max_nodes(qos.max_nodes)
+        .open_or_create()
+        .map_err(|e| wakeup_error(name.as_str(), "event service", e))
+}
+
+fn wakeup_error(topic: &str, what: &'static str, reason: impl Debug) -> IpcError {
+    IpcError::Wakeup {
+        topic: topic.to_string(),
+        what,
+        reason: format!("{reason:?}"),
+    }
+}
+
 /// The publishing end of a topic, carrying slices of `T`.
 pub struct TopicPublisher<S: Service, T: Debug + ZeroCopySend + 'static> {
     topic: String,
     port: Publisher<S, [T], MsgHeader>,
+    notifier: Notifier<S>,
 }
 
 impl<S: Service, T: Debug + ZeroCopySend + 'static> Debug for TopicPublisher<S, T> {
@@ -100,7 +134,8 @@ impl<S: Service, T: Debug + ZeroCopySend + 'static> TopicPublisher<S, T> {
         qos: &TopicQos,
         initial_max_len: usize,
     ) -> Result<Self, IpcError> {
-        let (topic, service) = open_service::<S, T>(run, node, topic, qos)?;
+        let topic_name = topic;
+        let (topic, service) = open_service::<S, T>(run, node, topic_name, qos)?;
         let port = service
             .publisher_builder()
             .initial_max_slice_len(initial_max_len.max(1))
@@ -110,7 +145,15 @@ impl<S: Service, T: Debug + ZeroCopySend + 'static> TopicPublisher<S, T> {
                 topic: topic.clone(),
                 reason,
             })?;
-        Ok(Self { topic, port })
+        let notifier = open_event(run, node, topic_name, qos)?
+            .notifier_builder()
+            .create()
+            .map_err(|e| wakeup_error(&topic, "notifier", e))?;
+        Ok(Self {
+            topic,
+            port,
+            notifier,
+        })
     }
 
     /// Full service name of the topic.
@@ -139,15 +182,21 @@ impl<S: Service, T: Debug + ZeroCopySend + 'static> TopicPublisher<S, T> {
             })
     }
 
-    /// Sends `sample`; returns how many subscribers it reached.
+    /// Sends `sample` and wakes the topic's waiting subscribers; returns how many
+    /// subscribers it reached.
     ///
     /// # Errors
-    /// [`IpcError::Send`] when iceoryx2 cannot deliver it (e.g. connection corrupted).
+    /// [`IpcError::Send`] when iceoryx2 cannot deliver it (e.g. connection corrupted),
+    /// [`IpcError::Wakeup`] when the notification fails (the sample was delivered).
     pub fn send(&self, sample: TopicSampleMut<S, T>) -> Result<usize, IpcError> {
-        sample.send().map_err(|reason| IpcError::Send {
+        let reached = sample.send().map_err(|reason| IpcError::Send {
             topic: self.topic.clone(),
             reason,
-        })
+        })?;
+        self.notifier
+            .notify()
+            .map_err(|e| wakeup_error(&self.topic, "notify", e))?;
+        Ok(reached)
     }
 }
 
@@ -193,6 +242,7 @@ impl<S: Service, T: Debug + ZeroCopySend + Copy + 'static> TopicPublisher<S, T> 
 pub struct TopicSubscriber<S: Service, T: Debug + ZeroCopySend + 'static> {
     topic: String,
     port: Subscriber<S, [T], MsgHeader>,
+    listener: Listener<S>,
 }
 
 impl<S: Service, T: Debug + ZeroCopySend + 'static> Debug for TopicSubscriber<S, T> {
@@ -216,7 +266,8 @@ impl<S: Service, T: Debug + ZeroCopySend + 'static> TopicSubscriber<S, T> {
         topic: &str,
         qos: &TopicQos,
     ) -> Result<Self, IpcError> {
-        let (topic, service) = open_service::<S, T>(run, node, topic, qos)?;
+        let topic_name = topic;
+        let (topic, service) = open_service::<S, T>(run, node, topic_name, qos)?;
         let port = service
             .subscriber_builder()
             .buffer_size(qos.subscriber_buffer)
@@ -226,7 +277,15 @@ impl<S: Service, T: Debug + ZeroCopySend + 'static> TopicSubscriber<S, T> {
                 topic: topic.clone(),
                 reason,
             })?;
-        Ok(Self { topic, port })
+        let listener = open_event(run, node, topic_name, qos)?
+            .listener_builder()
+            .create()
+            .map_err(|e| wakeup_error(&topic, "listener", e))?;
+        Ok(Self {
+            topic,
+            port,
+            listener,
+        })
     }
 
     /// Full service name of the topic.
@@ -237,6 +296,26 @@ impl<S: Service, T: Debug + ZeroCopySend + 'static> TopicSubscriber<S, T> {
     /// The iceoryx2 port, for what this wrapper does not cover.
     pub fn port(&self) -> &Subscriber<S, [T], MsgHeader> {
         &self.port
+    }
+
+    /// Sleeps until a publisher of the topic sent something or `timeout` passed; true
+    /// when woken by a send. Drain the queue with [`Self::receive`] before waiting: history
+    /// delivered on connection and samples sent before the subscriber existed come
+    /// without a wake-up. The listener can also be attached to an iceoryx2 `WaitSet`
+    /// ([`Self::listener`]) to wait on several topics at once.
+    ///
+    /// # Errors
+    /// [`IpcError::Wakeup`] when the wait fails (e.g. interrupted by a signal).
+    pub fn wait(&self, timeout: Duration) -> Result<bool, IpcError> {
+        self.listener
+            .timed_wait(|_| (), timeout)
+            .map(|n| n > 0)
+            .map_err(|e| wakeup_error(&self.topic, "wait", e))
+    }
+
+    /// The wake-up listener of this subscriber (for an iceoryx2 `WaitSet`).
+    pub fn listener(&self) -> &Listener<S> {
+        &self.listener
     }
 
     /// The oldest queued sample, or `None` when the queue is empty. Never blocks.

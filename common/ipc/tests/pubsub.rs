@@ -1,6 +1,8 @@
 //! Same-process publish/subscribe through `ipc::Service` and `local::Service`, each
 //! test in its own run (unique prefix and root), checked for leftovers at the end.
 
+use std::time::Duration;
+
 use gfs_core::ids::FrameId;
 use gfs_core::{Image, ImageView};
 use gfs_ipc::{
@@ -76,7 +78,6 @@ fn assert_no_leftovers(run: &IpcRun) {
         "files of run {} left: {left:?}",
         run.run_id()
     );
-    assert!(!run.root_dir().exists());
 }
 
 fn frame_round_trip<S: Service>(tag: &str) {
@@ -217,12 +218,16 @@ fn feature_slices_round_trip_and_history_reaches_late_subscribers() {
                 })
                 .collect()
         };
+        // Nothing sent yet: the wait ends by its (short) timeout.
+        assert!(!early.wait(Duration::from_millis(1)).unwrap());
         // Frame 2 is longer than the initial slice length: the segment grows.
         for (k, n) in [(0u32, 500usize), (1, 0), (2, 3000)] {
             publisher
                 .publish_slice(&stamped_header(u64::from(k)), &kps(k, n))
                 .unwrap();
         }
+        // The sends woke the subscriber: this returns at once (the bound is a safety net).
+        assert!(early.wait(Duration::from_secs(10)).unwrap());
         for (k, n) in [(0u32, 500usize), (1, 0), (2, 3000)] {
             let s = early.receive().unwrap().expect("features queued");
             assert_eq!(s.user_header().frame_id, u64::from(k));
