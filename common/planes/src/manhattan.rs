@@ -8,8 +8,9 @@
 //! `ma_inlier_angle_deg` of. Steps per frame:
 //! 1. hypotheses: every near-orthogonal pair among the heaviest directions (third axis
 //!    by cross product), plus the previous frame's axes moved by the predicted rotation;
-//! 2. score: the weighted soft inlier count of all directions, keep the best (the
-//!    prediction wins near-ties, so a frame does not jump between structures);
+//! 2. score: the weighted soft inlier count of all directions; the best pair and the
+//!    prediction are refined and the better one kept (the prediction wins ties, so a
+//!    frame does not jump between equally good structures);
 //! 3. refine: sum the sign-aligned inliers of each axis into the columns of a matrix
 //!    and project it onto SO(3) (polar decomposition by SVD), three rounds;
 //! 4. label: permute and flip the axes to match the predicted previous axes by |dot|.
@@ -36,8 +37,6 @@ const REFINE_ROUNDS: usize = 3;
 /// Weight of the hypothesis itself in the refinement, relative to the frame's vote:
 /// it only fixes the axes that no direction observes.
 const PRIOR_WEIGHT: f64 = 1e-3;
-/// The prediction is kept when it scores at least this fraction of the best hypothesis.
-const PREDICTION_TIE: f64 = 0.9;
 
 /// Estimates the Manhattan axes of successive frames; keeps the previous frame's axes
 /// so that axis `i` stays the same world direction with the same sign.
@@ -151,8 +150,29 @@ impl ManhattanEstimator {
         if self.directions.is_empty() {
             return None;
         }
-        let seed = self.best_hypothesis(predicted)?;
-        let rotation = self.refine(seed);
+        // The best pair and the prediction are both refined; the prediction wins ties,
+        // so that a frame does not jump between equally good structures.
+        // The prediction is also tried turned onto the heaviest direction, which is what
+        // completes a frame that sees one direction only, or rotated further than the
+        // inlier angle since the last one.
+        let mut rotation = self.best_pair().map(|r| self.refine(r));
+        let heaviest = self.directions[*self.order.first()?].dir;
+        if let Some(p) = predicted {
+            for candidate in [*p, align_closest_axis(p, &heaviest)] {
+                let refined = self.refine(candidate);
+                if rotation.is_none_or(|r| self.score(&refined) >= self.score(&r)) {
+                    rotation = Some(refined);
+                }
+            }
+        }
+        let rotation = match rotation {
+            Some(r) => r,
+            // No orthogonal pair and no history: the heaviest direction alone.
+            None => self.refine(from_two_axes(
+                heaviest,
+                heaviest.cross(&least_aligned_basis(heaviest)),
+            )?),
+        };
         let (support, has_plane) = self.support(&rotation);
         let total: f64 = support.iter().sum();
         let observed = [0, 1, 2].map(|k| has_plane[k] || support[k] >= self.min_axis_support);
@@ -175,9 +195,9 @@ impl ManhattanEstimator {
         })
     }
 
-    /// The best-scoring hypothesis: pairs of near-orthogonal heavy directions, the
-    /// prediction, or (when nothing else exists) the heaviest direction alone.
-    fn best_hypothesis(&mut self, predicted: Option<&Rotation3<f64>>) -> Option<Rotation3<f64>> {
+    /// The best-scoring hypothesis made of a near-orthogonal pair of heavy directions
+    /// (third axis by cross product), if any; leaves the heaviest directions in `order`.
+    fn best_pair(&mut self) -> Option<Rotation3<f64>> {
         self.order.clear();
         self.order.extend(0..self.directions.len());
         let dirs = &self.directions;
@@ -200,19 +220,7 @@ impl ManhattanEstimator {
                 }
             }
         }
-        if let Some(p) = predicted {
-            let score = self.score(p);
-            if best.is_none_or(|(s, _)| score >= PREDICTION_TIE * s) {
-                best = Some((score, *p));
-            }
-        }
-        match best {
-            Some((_, r)) => Some(r),
-            None => {
-                let a = self.directions[*self.order.first()?].dir;
-                from_two_axes(a, a.cross(&least_aligned_basis(a)))
-            }
-        }
+        best.map(|(_, r)| r)
     }
 
     /// Weighted soft inlier count: each direction scores `1 - (1 - |cos|) / (1 - cos_in)`
@@ -285,6 +293,15 @@ fn from_two_axes(a: Vector3<f64>, b: Vector3<f64>) -> Option<Rotation3<f64>> {
         b,
         a.cross(&b),
     ])))
+}
+
+/// `r` turned by the smallest rotation that makes its axis closest to `dir` (either
+/// sign) parallel to it.
+fn align_closest_axis(r: &Rotation3<f64>, dir: &Vector3<f64>) -> Rotation3<f64> {
+    let c = r.matrix().transpose() * dir;
+    let k = c.iamax();
+    let axis = r.matrix().column(k) * c[k].signum();
+    Rotation3::rotation_between(&axis, dir).map_or(*r, |turn| turn * r)
 }
 
 /// The camera basis vector least aligned with `a` (never parallel to it).

@@ -126,19 +126,12 @@ impl NormalEstimator {
             self.row_sums.fill(BlockSum::EMPTY);
             for dy in 0..s {
                 let row = depth.row(gy * s + dy);
-                for (sum, block) in self.row_sums.iter_mut().zip(row.chunks_exact(s)) {
-                    let mut row_z = 0.0;
-                    for (dx, &z) in block.iter().enumerate() {
-                        if valid_depth(z) {
-                            row_z += z;
-                            sum.uz += dx as f32 * z;
-                            sum.count += 1;
-                            sum.min = sum.min.min(z);
-                            sum.max = sum.max.max(z);
-                        }
-                    }
-                    sum.z += row_z;
-                    sum.vz += dy as f32 * row_z;
+                // Fixed block widths let the compiler unroll the block loop.
+                match s {
+                    2 => accumulate_row::<2>(row, s, dy, &mut self.row_sums),
+                    4 => accumulate_row::<4>(row, s, dy, &mut self.row_sums),
+                    8 => accumulate_row::<8>(row, s, dy, &mut self.row_sums),
+                    _ => accumulate_row::<0>(row, s, dy, &mut self.row_sums),
                 }
             }
             let out = &mut self.points[gy * self.grid_width..(gy + 1) * self.grid_width];
@@ -255,6 +248,33 @@ impl NormalEstimator {
     /// all zeros means no normal.
     pub fn normals(&self) -> &[[f32; 3]] {
         &self.normals
+    }
+}
+
+/// Adds one image row to the sums of the blocks it crosses: `N` is the block width when
+/// known at compile time, 0 for the run-time `stride`.
+#[inline]
+fn accumulate_row<const N: usize>(row: &[f32], stride: usize, dy: usize, sums: &mut [BlockSum]) {
+    let width = if N == 0 { stride } else { N };
+    for (sum, block) in sums.iter_mut().zip(row.chunks_exact(width)) {
+        let (mut row_z, mut uz, mut count) = (0.0, 0.0, 0);
+        let (mut min, mut max) = (sum.min, sum.max);
+        // Branch-free (selects): holes are frequent and unpredictable.
+        for (dx, &z) in block.iter().enumerate() {
+            let ok = valid_depth(z);
+            let z_or_zero = if ok { z } else { 0.0 };
+            row_z += z_or_zero;
+            uz += dx as f32 * z_or_zero;
+            count += u32::from(ok);
+            min = min.min(if ok { z } else { f32::INFINITY });
+            max = max.max(z_or_zero);
+        }
+        sum.z += row_z;
+        sum.uz += uz;
+        sum.vz += dy as f32 * row_z;
+        sum.count += count;
+        sum.min = min;
+        sum.max = max;
     }
 }
 

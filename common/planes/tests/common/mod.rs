@@ -1,4 +1,5 @@
 //! Test fixtures: a box room rendered as depth from inside, Kinect-like noise and holes.
+#![allow(dead_code)] // Each test binary uses a subset of the fixtures.
 
 use gfs_core::Image;
 use gfs_core::camera::PinholeCamera;
