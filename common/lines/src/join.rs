@@ -423,3 +423,93 @@ fn merged(long: &DetectedLine, short: &DetectedLine) -> DetectedLine {
         mean_gradient: (long.mean_gradient * ll + short.mean_gradient * ls) / (ll + ls),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{DetectConfig, LineDetector};
+    use gfs_core::Image;
+
+    fn line(u0: f32, v0: f32, u1: f32, v1: f32) -> DetectedLine {
+        DetectedLine {
+            segment: Segment::new(u0, v0, u1, v1),
+            mean_gradient: 100.0,
+        }
+    }
+
+    fn merge_all(mut lines: Vec<DetectedLine>) -> Vec<DetectedLine> {
+        merge(
+            &JoinConfig::default(),
+            &mut lines,
+            &mut JoinScratch::default(),
+        );
+        lines
+    }
+
+    #[test]
+    fn collinear_pieces_across_a_gap_merge_into_one_refitted_line() {
+        // Gap of 8 px, second piece 0.4 px lower: one line from u = 0 to u = 90.
+        let out = merge_all(vec![
+            line(0.0, 10.0, 40.0, 10.0),
+            line(48.0, 10.4, 90.0, 10.4),
+        ]);
+        assert_eq!(out.len(), 1, "{out:?}");
+        let s = out[0].segment;
+        assert!(
+            s.start[0].abs() < 0.1 && (s.end[0] - 90.0).abs() < 0.1,
+            "{s:?}"
+        );
+        // The length-weighted fit sits between the pieces (40 px at 10.0, 42 px at 10.4).
+        let mid_v = s.midpoint()[1];
+        assert!(mid_v > 10.1 && mid_v < 10.3, "{s:?}");
+        assert!((out[0].mean_gradient - 100.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn opposite_polarity_offset_or_distant_pieces_stay_apart() {
+        let base = line(0.0, 10.0, 40.0, 10.0);
+        // Opposite polarity (reversed direction), 3 px offset, 15 px gap, 6 degrees.
+        for other in [
+            line(90.0, 10.0, 48.0, 10.0),
+            line(48.0, 13.0, 90.0, 13.0),
+            line(55.0, 10.0, 90.0, 10.0),
+            line(48.0, 10.0, 90.0, 10.0 + 42.0 * 6f32.to_radians().tan()),
+        ] {
+            assert_eq!(merge_all(vec![base, other]).len(), 2, "{other:?}");
+        }
+    }
+
+    #[test]
+    fn shortened_segments_grow_back_to_the_corners() {
+        // A 60 x 40 bright rectangle with corners at (20.5, 30.5) and (80.5, 70.5).
+        let mut img = Image::new(100, 100);
+        for v in 31..=70 {
+            for u in 21..=80 {
+                img.set(u, v, 180u8);
+            }
+        }
+        let mut detector = LineDetector::new(DetectConfig::default());
+        let mut lines = Vec::new();
+        detector.detect(&img.view(), &mut lines);
+        assert_eq!(lines.len(), 4);
+        // Cut 8 px off both ends, then let the joining find the ends again.
+        for l in &mut lines {
+            let s = &mut l.segment;
+            let len = s.length();
+            let d = [(s.end[0] - s.start[0]) / len, (s.end[1] - s.start[1]) / len];
+            s.start = [s.start[0] + 8.0 * d[0], s.start[1] + 8.0 * d[1]];
+            s.end = [s.end[0] - 8.0 * d[0], s.end[1] - 8.0 * d[1]];
+        }
+        detector.join(&mut lines);
+        let corners = [[20.5, 30.5], [80.5, 30.5], [80.5, 70.5], [20.5, 70.5]];
+        for l in &lines {
+            for e in [l.segment.start, l.segment.end] {
+                let err = corners
+                    .iter()
+                    .map(|c: &[f32; 2]| (c[0] - e[0]).hypot(c[1] - e[1]))
+                    .fold(f32::MAX, f32::min);
+                assert!(err < 0.5, "endpoint {e:?} is {err} px from a corner");
+            }
+        }
+    }
+}

@@ -145,6 +145,16 @@ fn gaps_up_to_five_pixels_are_bridged() {
             let img = canvas.to_gray(5.0, &mut rng);
             let lines = detect_and_join(&mut detector, &img);
             let top = sides(&bar)[0];
+            // Without joining the side is in pieces (smoothing bridges 1-2 px gaps).
+            let mut unjoined = Vec::new();
+            detector.detect(&img.view(), &mut unjoined);
+            if gap >= 3 {
+                let pieces = on_truth(&top, &unjoined).count();
+                assert!(
+                    pieces >= 3,
+                    "gap {gap} px at {angle_deg} deg: {pieces} pieces"
+                );
+            }
             let pieces: Vec<&DetectedLine> = on_truth(&top, &lines).collect();
             let cover = coverage(&top, pieces.iter().copied());
             assert_eq!(
@@ -159,6 +169,24 @@ fn gaps_up_to_five_pixels_are_bridged() {
             );
         }
     }
+}
+
+#[test]
+fn gaps_of_twenty_pixels_are_not_bridged() {
+    let mut canvas = Canvas::new(320, 240, |_, _| 60.0);
+    // Two collinear bright blocks 20 px apart: their top sides stay two segments.
+    canvas.fill_polygon(&rectangle([90.0, 120.0], 100.0, 60.0, 0.2), 190.0);
+    let c2 = [90.0 + 120.0 * 0.2f64.cos(), 120.0 + 120.0 * 0.2f64.sin()];
+    canvas.fill_polygon(&rectangle(c2, 100.0, 60.0, 0.2), 190.0);
+    let img = canvas.to_gray(5.0, &mut Rng::new(9));
+    let lines = detect_and_join(&mut LineDetector::new(DetectConfig::default()), &img);
+    let first = sides(&rectangle([90.0, 120.0], 100.0, 60.0, 0.2))[0];
+    let pieces: Vec<_> = on_truth(&first, &lines).collect();
+    assert_eq!(pieces.len(), 2, "{pieces:?}");
+    assert!(
+        pieces.iter().all(|p| p.segment.length() < 101.0),
+        "{pieces:?}"
+    );
 }
 
 #[test]
