@@ -6,11 +6,11 @@
 //! end of each round, the kernel dropped after the second round).
 
 use crate::lm::Damping;
-use crate::residuals::{LineReprojection, PointReprojection};
-use crate::robust::{CHI2_2DOF_95, Huber};
+use crate::residuals::{LineReprojection, PointReprojection, StereoPointReprojection};
+use crate::robust::{CHI2_2DOF_95, CHI2_3DOF_95, DEFAULT_RGBD_BF, Huber};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::se3::retract;
-use nalgebra::{Isometry3, Matrix6, Vector2, Vector3, Vector6};
+use nalgebra::{Isometry3, Matrix6, SMatrix, SVector, Vector2, Vector3, Vector6};
 use serde::Deserialize;
 
 /// A map point matched to a keypoint of the frame.
@@ -22,6 +22,11 @@ pub struct PointObservation {
     pub uv: Vector2<f64>,
     /// Information of the keypoint, 1/px^2 (see [`crate::robust::inv_sigma2_for_level`]).
     pub inv_sigma2: f64,
+    /// Measured depth of the keypoint, metres; `0.0` (or any value <= 0) when there is
+    /// none or it is not trusted (ORB-SLAM2 keeps depth for points closer than 40
+    /// baselines): the error is then the 2D reprojection only, else the RGB-D error
+    /// of [`StereoPointReprojection`].
+    pub depth: f64,
 }
 
 /// A map line matched to a 2D line of the frame.
@@ -49,6 +54,12 @@ pub struct PoseOptimizerConfig {
     /// Chi-square threshold of a point observation (2 dof, 95 %); also the Huber
     /// threshold as `sqrt`; default 5.991 (ORB-SLAM2).
     pub point_chi2: f64,
+    /// Chi-square threshold (and Huber `sqrt`) of a point observation with depth (3 dof,
+    /// 95 %); default 7.815 (ORB-SLAM2).
+    pub point_depth_chi2: f64,
+    /// Virtual stereo `baseline x fx` turning depth into a right coordinate, metres x
+    /// pixels; default 40.0 (ORB-SLAM2 TUM `Camera.bf`).
+    pub bf: f64,
     /// Chi-square threshold of a line observation; default 5.991: its two endpoint
     /// distances are two pixel errors of the same sigma, 2 dof at 95 % as for points.
     pub line_chi2: f64,
@@ -61,6 +72,8 @@ impl Default for PoseOptimizerConfig {
             iterations_per_round: 10,
             robust_rounds: 2,
             point_chi2: CHI2_2DOF_95,
+            point_depth_chi2: CHI2_3DOF_95,
+            bf: DEFAULT_RGBD_BF,
             line_chi2: CHI2_2DOF_95,
         }
     }
@@ -79,8 +92,8 @@ pub struct PoseResult {
     pub num_point_inliers: usize,
     /// Number of `true` in `line_inliers`.
     pub num_line_inliers: usize,
-    /// RMS of the inliers' residual components (point u/v errors, line endpoint
-    /// distances), pixels, unweighted; 0 without inliers.
+    /// RMS of the inliers' residual components (point u / v / u_r errors, line
+    /// endpoint distances), pixels, unweighted; 0 without inliers.
     pub rms_error_px: f64,
     /// LM iterations run over all rounds.
     pub iterations: usize,
@@ -115,6 +128,8 @@ pub fn optimize_pose(
         points,
         lines,
         point_huber: Huber::from_chi2(config.point_chi2),
+        point_depth_huber: Huber::from_chi2(config.point_depth_chi2),
+        bf: config.bf,
         line_huber: Huber::from_chi2(config.line_chi2),
     };
     let mut pose = *initial_camera_from_world;
@@ -125,7 +140,17 @@ pub fn optimize_pose(
     result.iterations = 0;
     result.converged = false;
     // Every observation that can be evaluated starts as an inlier (ORB-SLAM2).
-    problem.classify(&pose, f64::INFINITY, f64::INFINITY, result);
+    let unbounded = Thresholds {
+        point: f64::INFINITY,
+        point_depth: f64::INFINITY,
+        line: f64::INFINITY,
+    };
+    problem.classify(&pose, &unbounded, result);
+    let thresholds = Thresholds {
+        point: config.point_chi2,
+        point_depth: config.point_depth_chi2,
+        line: config.line_chi2,
+    };
     for round in 0..config.rounds {
         if result.num_point_inliers + result.num_line_inliers == 0 {
             break;
@@ -136,7 +161,7 @@ pub fn optimize_pose(
         pose = estimate;
         result.iterations += iterations;
         result.converged = converged;
-        problem.classify(&pose, config.point_chi2, config.line_chi2, result);
+        problem.classify(&pose, &thresholds, result);
     }
     result.converged &= result.num_point_inliers + result.num_line_inliers > 0;
     result.camera_from_world = pose;
@@ -149,7 +174,16 @@ struct PoseProblem<'a> {
     points: &'a [PointObservation],
     lines: &'a [LineObservation],
     point_huber: Huber,
+    point_depth_huber: Huber,
+    bf: f64,
     line_huber: Huber,
+}
+
+/// Chi-square thresholds of the observation kinds.
+struct Thresholds {
+    point: f64,
+    point_depth: f64,
+    line: f64,
 }
 
 /// The normal equations of one linearisation.
@@ -159,9 +193,47 @@ struct Normal {
     cost: f64,
 }
 
+impl Normal {
+    /// Adds a residual with information `info`, robustified when `huber` is given.
+    fn add<const R: usize>(
+        &mut self,
+        j: &SMatrix<f64, R, 6>,
+        e: &SVector<f64, R>,
+        info: f64,
+        huber: Option<&Huber>,
+    ) {
+        let s = info * e.norm_squared();
+        let (cost, w) = huber.map_or((s, 1.0), |h| (h.cost(s), h.weight(s)));
+        let jt_w = j.transpose() * (w * info);
+        self.h += jt_w * j;
+        self.g += jt_w * e;
+        self.cost += cost;
+    }
+}
+
 impl PoseProblem<'_> {
-    fn point_error(&self, pose: &Isometry3<f64>, obs: &PointObservation) -> Option<Vector2<f64>> {
-        PointReprojection { uv: obs.uv }.error(self.camera, pose, &obs.point_in_world)
+    /// Squared residual norm of a point observation (unweighted) and whether it has
+    /// depth; `None` behind the camera.
+    fn point_residual2(
+        &self,
+        pose: &Isometry3<f64>,
+        obs: &PointObservation,
+    ) -> Option<(f64, bool)> {
+        if obs.depth > 0.0 {
+            let r = StereoPointReprojection::from_depth(obs.uv, obs.depth, self.bf);
+            Some((
+                r.error(self.camera, pose, &obs.point_in_world)?
+                    .norm_squared(),
+                true,
+            ))
+        } else {
+            let r = PointReprojection { uv: obs.uv };
+            Some((
+                r.error(self.camera, pose, &obs.point_in_world)?
+                    .norm_squared(),
+                false,
+            ))
+        }
     }
 
     fn line_error(&self, pose: &Isometry3<f64>, obs: &LineObservation) -> Option<Vector2<f64>> {
@@ -170,27 +242,34 @@ impl PoseProblem<'_> {
 
     /// Marks every observation inlier / outlier by its chi-square at `pose` (invalid or
     /// non-finite = outlier).
-    fn classify(
-        &self,
-        pose: &Isometry3<f64>,
-        point_chi2: f64,
-        line_chi2: f64,
-        result: &mut PoseResult,
-    ) {
-        let chi2 = |e: Option<Vector2<f64>>, info: f64| e.map(|e| info * e.norm_squared());
-        let is_inlier = |s: Option<f64>, threshold: f64| s.is_some_and(|s| s <= threshold);
+    fn classify(&self, pose: &Isometry3<f64>, thresholds: &Thresholds, result: &mut PoseResult) {
         for (flag, obs) in result.point_inliers.iter_mut().zip(self.points) {
-            *flag = is_inlier(
-                chi2(self.point_error(pose, obs), obs.inv_sigma2),
-                point_chi2,
-            ) && obs.inv_sigma2 > 0.0;
+            *flag = obs.inv_sigma2 > 0.0
+                && self.point_residual2(pose, obs).is_some_and(|(e2, depth)| {
+                    let threshold = if depth {
+                        thresholds.point_depth
+                    } else {
+                        thresholds.point
+                    };
+                    obs.inv_sigma2 * e2 <= threshold
+                });
         }
         for (flag, obs) in result.line_inliers.iter_mut().zip(self.lines) {
-            *flag = is_inlier(chi2(self.line_error(pose, obs), obs.inv_sigma2), line_chi2)
-                && obs.inv_sigma2 > 0.0;
+            *flag = obs.inv_sigma2 > 0.0
+                && self
+                    .line_error(pose, obs)
+                    .is_some_and(|e| obs.inv_sigma2 * e.norm_squared() <= thresholds.line);
         }
         result.num_point_inliers = result.point_inliers.iter().filter(|&&f| f).count();
         result.num_line_inliers = result.line_inliers.iter().filter(|&&f| f).count();
+    }
+
+    fn point_huber(&self, depth: bool) -> &Huber {
+        if depth {
+            &self.point_depth_huber
+        } else {
+            &self.point_huber
+        }
     }
 
     /// Robust cost of the active observations; `None` when one of them is not valid at
@@ -203,8 +282,13 @@ impl PoseProblem<'_> {
             .zip(&result.point_inliers)
             .filter(|(_, f)| **f)
         {
-            let s = obs.inv_sigma2 * self.point_error(pose, obs)?.norm_squared();
-            cost += if robust { self.point_huber.cost(s) } else { s };
+            let (e2, depth) = self.point_residual2(pose, obs)?;
+            let s = obs.inv_sigma2 * e2;
+            cost += if robust {
+                self.point_huber(depth).cost(s)
+            } else {
+                s
+            };
         }
         for (obs, _) in self
             .lines
@@ -225,26 +309,25 @@ impl PoseProblem<'_> {
             g: Vector6::zeros(),
             cost: 0.0,
         };
+        let camera = self.camera;
         for (obs, _) in self
             .points
             .iter()
             .zip(&result.point_inliers)
             .filter(|(_, f)| **f)
         {
-            let r = PointReprojection { uv: obs.uv };
-            let Some(lin) = r.linearize(self.camera, pose, &obs.point_in_world) else {
-                continue;
-            };
-            let s = obs.inv_sigma2 * lin.error.norm_squared();
-            let (cost, w) = if robust {
-                (self.point_huber.cost(s), self.point_huber.weight(s))
+            let huber = robust.then_some(self.point_huber(obs.depth > 0.0));
+            if obs.depth > 0.0 {
+                let r = StereoPointReprojection::from_depth(obs.uv, obs.depth, self.bf);
+                if let Some(l) = r.linearize(camera, pose, &obs.point_in_world) {
+                    n.add(&l.d_pose, &l.error, obs.inv_sigma2, huber);
+                }
             } else {
-                (s, 1.0)
-            };
-            let jt_w = lin.d_pose.transpose() * (w * obs.inv_sigma2);
-            n.h += jt_w * lin.d_pose;
-            n.g += jt_w * lin.error;
-            n.cost += cost;
+                let r = PointReprojection { uv: obs.uv };
+                if let Some(l) = r.linearize(camera, pose, &obs.point_in_world) {
+                    n.add(&l.d_pose, &l.error, obs.inv_sigma2, huber);
+                }
+            }
         }
         for (obs, _) in self
             .lines
@@ -253,19 +336,14 @@ impl PoseProblem<'_> {
             .filter(|(_, f)| **f)
         {
             let r = LineReprojection { coeffs: obs.coeffs };
-            let Some(lin) = r.linearize(self.camera, pose, &obs.endpoints_in_world) else {
-                continue;
-            };
-            let s = obs.inv_sigma2 * lin.error.norm_squared();
-            let (cost, w) = if robust {
-                (self.line_huber.cost(s), self.line_huber.weight(s))
-            } else {
-                (s, 1.0)
-            };
-            let jt_w = lin.d_pose.transpose() * (w * obs.inv_sigma2);
-            n.h += jt_w * lin.d_pose;
-            n.g += jt_w * lin.error;
-            n.cost += cost;
+            if let Some(l) = r.linearize(camera, pose, &obs.endpoints_in_world) {
+                n.add(
+                    &l.d_pose,
+                    &l.error,
+                    obs.inv_sigma2,
+                    robust.then_some(&self.line_huber),
+                );
+            }
         }
         n
     }
@@ -330,9 +408,9 @@ impl PoseProblem<'_> {
             .zip(&result.point_inliers)
             .filter(|(_, f)| **f)
         {
-            if let Some(e) = self.point_error(pose, obs) {
-                sum += e.norm_squared();
-                components += 2;
+            if let Some((e2, depth)) = self.point_residual2(pose, obs) {
+                sum += e2;
+                components += if depth { 3 } else { 2 };
             }
         }
         for (obs, _) in self

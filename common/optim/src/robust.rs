@@ -7,6 +7,14 @@ pub const CHI2_1DOF_95: f64 = 3.841;
 /// monocular threshold).
 pub const CHI2_2DOF_95: f64 = 5.991;
 
+/// 95 % quantile of the chi-square distribution with 3 degrees of freedom (ORB-SLAM2's
+/// stereo / RGB-D threshold).
+pub const CHI2_3DOF_95: f64 = 7.815;
+
+/// Virtual stereo baseline times focal length of an RGB-D camera, metres x pixels
+/// (ORB-SLAM2 `Camera.bf: 40.0` for the TUM configs: 8 cm x ~500 px).
+pub const DEFAULT_RGBD_BF: f64 = 40.0;
+
 /// Scale factor between pyramid levels (ORB-SLAM2 default 1.2).
 pub const PYRAMID_SCALE_FACTOR: f64 = 1.2;
 

@@ -30,6 +30,7 @@ fn synthetic_frame(
     camera: &PinholeCamera,
     truth: &Isometry3<f64>,
     outlier_ratio: f64,
+    with_depth: bool,
     rng: &mut Rng,
 ) -> Frame {
     let mut frame = Frame {
@@ -40,7 +41,8 @@ fn synthetic_frame(
     };
     while frame.points.len() < 300 {
         let uv = random_pixel(rng);
-        let p_w = point_at_pixel(camera, truth, uv, rng.uniform(1.0, 6.0));
+        let z = rng.uniform(1.0, 6.0);
+        let p_w = point_at_pixel(camera, truth, uv, z);
         let outlier = rng.uniform(0.0, 1.0) < outlier_ratio;
         let observed = if outlier {
             let mut wrong = random_pixel(rng);
@@ -51,10 +53,17 @@ fn synthetic_frame(
         } else {
             uv + Vector2::new(rng.gaussian(), rng.gaussian())
         };
+        // Kinect-like depth noise for points closer than 3.2 m (ORB-SLAM2 TUM ThDepth).
+        let depth = if with_depth && z < 3.2 {
+            z + rng.gaussian() * (0.0012 + 0.0019 * (z - 0.4) * (z - 0.4))
+        } else {
+            0.0
+        };
         frame.points.push(PointObservation {
             point_in_world: p_w,
             uv: observed,
             inv_sigma2: 1.0,
+            depth,
         });
         frame.point_outlier.push(outlier);
     }
@@ -120,10 +129,11 @@ fn recovers_the_pose_and_flags_outliers() {
     let camera = camera();
     let mut result = PoseResult::default();
     let config = PoseOptimizerConfig::default();
-    for seed in 0..5 {
+    // Odd seeds give depth to the points closer than 3.2 m (RGB-D error).
+    for seed in 0..6 {
         let mut rng = Rng::new(100 + seed);
         let truth = true_pose();
-        let frame = synthetic_frame(&camera, &truth, 0.2, &mut rng);
+        let frame = synthetic_frame(&camera, &truth, 0.2, seed % 2 == 1, &mut rng);
         let initial = perturb(&truth, 0.10, 5f64.to_radians(), &mut rng);
         optimize_pose(
             &camera,
@@ -171,7 +181,7 @@ fn lines_alone_constrain_the_pose() {
     let camera = camera();
     let mut rng = Rng::new(7);
     let truth = true_pose();
-    let frame = synthetic_frame(&camera, &truth, 0.0, &mut rng);
+    let frame = synthetic_frame(&camera, &truth, 0.0, false, &mut rng);
     let initial = perturb(&truth, 0.05, 2f64.to_radians(), &mut rng);
     let mut result = PoseResult::default();
     optimize_pose(
@@ -214,6 +224,7 @@ fn no_observations_returns_the_initial_pose_unconverged() {
         point_in_world: (initial.inverse() * nalgebra::Point3::new(0.0, 0.0, -2.0)).coords,
         uv: Vector2::new(320.0, 240.0),
         inv_sigma2: 1.0,
+        depth: 0.0,
     };
     let nan = PointObservation {
         uv: Vector2::new(f64::NAN, 1.0),

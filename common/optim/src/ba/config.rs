@@ -1,11 +1,11 @@
 //! Parameters of the local bundle adjustment.
 
-use crate::robust::{CHI2_1DOF_95, CHI2_2DOF_95};
+use crate::robust::{CHI2_1DOF_95, CHI2_2DOF_95, CHI2_3DOF_95, DEFAULT_RGBD_BF};
 use serde::Deserialize;
 
 /// Information of a structural / Manhattan error of one degree, `1 / sin^2(1 deg)`:
 /// a pair 1 degree off costs as much as a 1-sigma pixel error.
-pub const ONE_DEGREE_INFORMATION: f64 = 3282.806_350_011_744;
+pub const ONE_DEGREE_INFORMATION: f64 = 3_283.139_703_653_888;
 
 /// Parameters of [`crate::LocalBundleAdjuster`] (TOML table `[local_ba]`).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -18,6 +18,12 @@ pub struct BaConfig {
     /// Chi-square threshold (and Huber `sqrt`) of a point observation; default 5.991
     /// (2 dof, 95 %, ORB-SLAM2).
     pub point_chi2: f64,
+    /// Chi-square threshold (and Huber `sqrt`) of a point observation with depth;
+    /// default 7.815 (3 dof, 95 %, ORB-SLAM2).
+    pub point_depth_chi2: f64,
+    /// Virtual stereo `baseline x fx` turning depth into a right coordinate, metres x
+    /// pixels; default 40.0 (ORB-SLAM2 TUM `Camera.bf`).
+    pub bf: f64,
     /// Chi-square threshold (and Huber `sqrt`) of a line observation; default 5.991 (two
     /// endpoint distances of the same pixel sigma: 2 dof, 95 %).
     pub line_chi2: f64,
@@ -46,6 +52,8 @@ impl Default for BaConfig {
             first_pass_iterations: 5,
             second_pass_iterations: 10,
             point_chi2: CHI2_2DOF_95,
+            point_depth_chi2: CHI2_3DOF_95,
+            bf: DEFAULT_RGBD_BF,
             line_chi2: CHI2_2DOF_95,
             parallel_weight: ONE_DEGREE_INFORMATION,
             perpendicular_weight: ONE_DEGREE_INFORMATION,

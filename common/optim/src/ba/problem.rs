@@ -25,6 +25,9 @@ pub struct BaPointObservation {
     pub uv: Vector2<f64>,
     /// Information, 1/px^2 (see [`crate::robust::inv_sigma2_for_level`]).
     pub inv_sigma2: f64,
+    /// Measured depth, metres; `<= 0` for none: 2D error only, else the RGB-D error
+    /// ([`crate::residuals::StereoPointReprojection`]), which fixes depth and scale.
+    pub depth: f64,
 }
 
 /// An observation of a map line by a keyframe: endpoint-to-line distances (eq. 7).
@@ -54,7 +57,8 @@ pub struct BaManhattan {
 pub struct BaProblem {
     /// Intrinsics of the (undistorted) images of every keyframe.
     pub camera: PinholeCamera,
-    /// Keyframe poses; at least one must be fixed.
+    /// Keyframe poses; at least one must be fixed. With 2D errors only (no depth) one
+    /// fixed pose leaves the scale free: fix two or more, or give depths.
     pub poses: Vec<BaPose>,
     /// Map points, world frame, metres.
     pub points: Vec<Vector3<f64>>,
@@ -133,7 +137,9 @@ impl BaProblem {
         for (i, o) in self.point_observations.iter().enumerate() {
             check("point_observations", i, "pose", o.pose, np)?;
             check("point_observations", i, "point", o.point, nx)?;
-            let ok = o.uv.iter().all(|v| v.is_finite()) && o.inv_sigma2.is_finite();
+            let ok = o.uv.iter().all(|v| v.is_finite())
+                && o.inv_sigma2.is_finite()
+                && o.depth.is_finite();
             finite("point_observations", i, ok)?;
         }
         for (i, o) in self.line_observations.iter().enumerate() {

@@ -11,7 +11,7 @@ use crate::lm::Damping;
 use gfs_core::se3::retract;
 
 /// Relative cost decrease below which LM has converged.
-const RELATIVE_COST_TOLERANCE: f64 = 1e-9;
+const RELATIVE_COST_TOLERANCE: f64 = 1e-6;
 
 /// Output of [`LocalBundleAdjuster::optimize`]; reuse one value to keep its buffers.
 #[derive(Clone, Debug, Default)]

@@ -7,6 +7,7 @@ use super::linear::Linearization;
 use super::problem::BaProblem;
 use crate::residuals::{
     LineReprojection, ManhattanAxis, ParallelLines, PerpendicularLines, PointReprojection,
+    StereoPointReprojection,
 };
 use crate::robust::Huber;
 use nalgebra::{Isometry3, SMatrix, SVector, Vector3};
@@ -66,6 +67,7 @@ pub(crate) struct Terms<'a> {
     pub(crate) problem: &'a BaProblem,
     config: &'a BaConfig,
     point_huber: Huber,
+    point_depth_huber: Huber,
     line_huber: Huber,
     parallel_huber: Huber,
     perpendicular_huber: Huber,
@@ -92,6 +94,7 @@ impl<'a> Terms<'a> {
             problem,
             config,
             point_huber: Huber::from_chi2(config.point_chi2),
+            point_depth_huber: Huber::from_chi2(config.point_depth_chi2),
             line_huber: Huber::from_chi2(config.line_chi2),
             parallel_huber: Huber::from_chi2(config.parallel_chi2),
             perpendicular_huber: Huber::from_chi2(config.perpendicular_chi2),
@@ -116,12 +119,26 @@ impl<'a> Terms<'a> {
 
     fn point_chi2(&self, v: &Values, k: usize) -> Option<f64> {
         let o = &self.problem.point_observations[k];
-        let e = PointReprojection { uv: o.uv }.error(
-            &self.problem.camera,
-            &v.poses[o.pose],
-            &v.points[o.point],
-        )?;
-        Some(o.inv_sigma2 * e.norm_squared())
+        let (camera, pose, point) = (&self.problem.camera, &v.poses[o.pose], &v.points[o.point]);
+        let e2 = if o.depth > 0.0 {
+            StereoPointReprojection::from_depth(o.uv, o.depth, self.config.bf)
+                .error(camera, pose, point)?
+                .norm_squared()
+        } else {
+            PointReprojection { uv: o.uv }
+                .error(camera, pose, point)?
+                .norm_squared()
+        };
+        Some(o.inv_sigma2 * e2)
+    }
+
+    /// Threshold and kernel of point observation `k` (with or without depth).
+    fn point_kind(&self, k: usize) -> (f64, &Huber) {
+        if self.problem.point_observations[k].depth > 0.0 {
+            (self.config.point_depth_chi2, &self.point_depth_huber)
+        } else {
+            (self.config.point_chi2, &self.point_huber)
+        }
     }
 
     fn line_chi2(&self, v: &Values, k: usize) -> Option<f64> {
@@ -165,7 +182,7 @@ impl<'a> Terms<'a> {
         let p = self.problem;
         for (k, f) in flags.point_observations.iter_mut().enumerate() {
             *f = p.point_observations[k].inv_sigma2 > 0.0
-                && inlier(self.point_chi2(v, k), self.config.point_chi2);
+                && inlier(self.point_chi2(v, k), self.point_kind(k).0);
         }
         for (k, f) in flags.line_observations.iter_mut().enumerate() {
             *f = p.line_observations[k].inv_sigma2 > 0.0
@@ -220,7 +237,7 @@ impl<'a> Terms<'a> {
         };
         let mut ok = true;
         for k in (0..flags.point_observations.len()).filter(|&k| flags.point_observations[k]) {
-            ok &= add(self.point_chi2(v, k), &self.point_huber);
+            ok &= add(self.point_chi2(v, k), self.point_kind(k).1);
         }
         for k in (0..flags.line_observations.len()).filter(|&k| flags.line_observations[k]) {
             ok &= add(self.line_chi2(v, k), &self.line_huber);
@@ -246,29 +263,15 @@ impl<'a> Terms<'a> {
             if !flags.point_observations[k] {
                 continue;
             }
-            let r = PointReprojection { uv: o.uv };
-            let Some(l) = r.linearize(camera, &v.poses[o.pose], &v.points[o.point]) else {
-                continue;
-            };
-            let s = o.inv_sigma2 * l.error.norm_squared();
-            let w = o.inv_sigma2 * self.point_huber.weight(s);
-            lin.cost += self.point_huber.cost(s);
-            add_block(
-                &mut lin.h_point[o.point],
-                &mut lin.g_point[o.point],
-                &l.d_point,
-                &l.error,
-                w,
-            );
-            if !p.poses[o.pose].fixed {
-                add_block(
-                    &mut lin.h_pose[o.pose],
-                    &mut lin.g_pose[o.pose],
-                    &l.d_pose,
-                    &l.error,
-                    w,
-                );
-                lin.w_point_obs[k] = l.d_pose.transpose() * w * l.d_point;
+            let (pose, point) = (&v.poses[o.pose], &v.points[o.point]);
+            if o.depth > 0.0 {
+                let r = StereoPointReprojection::from_depth(o.uv, o.depth, self.config.bf);
+                if let Some(l) = r.linearize(camera, pose, point) {
+                    self.add_point(lin, k, &l.d_pose, &l.d_point, &l.error);
+                }
+            } else if let Some(l) = (PointReprojection { uv: o.uv }).linearize(camera, pose, point)
+            {
+                self.add_point(lin, k, &l.d_pose, &l.d_point, &l.error);
             }
         }
         for (k, o) in p.line_observations.iter().enumerate() {
@@ -358,6 +361,39 @@ impl<'a> Terms<'a> {
                 &l.error,
                 w,
             );
+        }
+    }
+
+    /// Adds point observation `k` (2D or RGB-D) to the blocks.
+    fn add_point<const R: usize>(
+        &self,
+        lin: &mut Linearization,
+        k: usize,
+        d_pose: &SMatrix<f64, R, 6>,
+        d_point: &SMatrix<f64, R, 3>,
+        error: &SVector<f64, R>,
+    ) {
+        let o = &self.problem.point_observations[k];
+        let huber = self.point_kind(k).1;
+        let s = o.inv_sigma2 * error.norm_squared();
+        let w = o.inv_sigma2 * huber.weight(s);
+        lin.cost += huber.cost(s);
+        add_block(
+            &mut lin.h_point[o.point],
+            &mut lin.g_point[o.point],
+            d_point,
+            error,
+            w,
+        );
+        if !self.problem.poses[o.pose].fixed {
+            add_block(
+                &mut lin.h_pose[o.pose],
+                &mut lin.g_pose[o.pose],
+                d_pose,
+                error,
+                w,
+            );
+            lin.w_point_obs[k] = d_pose.transpose() * w * d_point;
         }
     }
 }

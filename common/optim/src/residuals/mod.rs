@@ -14,12 +14,14 @@ mod parallel;
 mod perpendicular;
 mod point;
 mod projection;
+mod stereo;
 
 pub use line::{LineLinearization, LineReprojection};
 pub use manhattan::{ManhattanAxis, ManhattanLinearization};
 pub use parallel::{ParallelLinearization, ParallelLines};
 pub use perpendicular::{PerpendicularLinearization, PerpendicularLines};
 pub use point::{PointLinearization, PointReprojection};
+pub use stereo::{StereoPointLinearization, StereoPointReprojection};
 
 #[cfg(test)]
 pub(crate) mod testing;

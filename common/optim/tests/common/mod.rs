@@ -137,3 +137,197 @@ pub fn direction_error_deg(line: &[Vector3<f64>; 2], axis: &Vector3<f64>) -> f64
     let d = (line[1] - line[0]).normalize();
     d.dot(axis).abs().min(1.0).acos().to_degrees()
 }
+
+/// A synthetic local-BA scene: keyframes along a path looking at points and
+/// axis-aligned lines, its true values and a noisy problem built from it.
+pub struct BaScene {
+    pub true_poses: Vec<Isometry3<f64>>,
+    pub true_points: Vec<Vector3<f64>>,
+    pub true_lines: Vec<[Vector3<f64>; 2]>,
+    pub line_axis: Vec<usize>,
+    pub problem: gfs_optim::BaProblem,
+}
+
+/// Options of [`BaScene::new`].
+pub struct BaSceneSpec {
+    pub keyframes: usize,
+    pub points: usize,
+    pub lines: usize,
+    /// Leading keyframes held fixed (2 fix the scale, which 2D errors leave free).
+    pub fixed: usize,
+    /// Parallel and perpendicular partners per line (each).
+    pub partners: usize,
+    /// Fraction of point observations replaced by a random pixel.
+    pub outlier_ratio: f64,
+    /// Points closer than this (metres, camera z) get a measured depth (Kinect-like
+    /// noise); 0 for 2D observations only.
+    pub depth_range: f64,
+}
+
+impl BaScene {
+    pub fn new(spec: &BaSceneSpec, rng: &mut Rng) -> Self {
+        use gfs_optim::{BaLineObservation, BaManhattan, BaPointObservation, BaPose, BaProblem};
+        let camera = camera();
+        let true_poses: Vec<Isometry3<f64>> = (0..spec.keyframes)
+            .map(|k| {
+                let s = k as f64 - 0.5 * (spec.keyframes as f64 - 1.0);
+                let centre = Vector3::new(0.1 * s, 0.03 * (k as f64).sin(), 0.02 * s);
+                let rotation = nalgebra::UnitQuaternion::from_scaled_axis(Vector3::new(
+                    0.01 * s,
+                    -0.03 * s,
+                    0.005 * s,
+                ));
+                Isometry3::from_parts(centre.into(), rotation).inverse()
+            })
+            .collect();
+        let seen_by = |p: &Vector3<f64>| {
+            true_poses
+                .iter()
+                .filter(|t| project(&camera, t, p).is_some())
+                .count()
+        };
+        let mut true_points = Vec::new();
+        while true_points.len() < spec.points {
+            let p = Vector3::new(
+                rng.uniform(-1.8, 1.8),
+                rng.uniform(-1.3, 1.3),
+                rng.uniform(1.5, 5.0),
+            );
+            if seen_by(&p) >= 2 {
+                true_points.push(p);
+            }
+        }
+        let mut true_lines = Vec::new();
+        let mut line_axis = Vec::new();
+        while true_lines.len() < spec.lines {
+            let axis = true_lines.len() % 3;
+            let centre = Vector3::new(
+                rng.uniform(-1.5, 1.5),
+                rng.uniform(-1.0, 1.0),
+                rng.uniform(2.0, 4.5),
+            );
+            let line = axis_line(centre, axis, rng.uniform(0.4, 1.0));
+            if seen_by(&line[0]).min(seen_by(&line[1])) >= 2 {
+                true_lines.push(line);
+                line_axis.push(axis);
+            }
+        }
+        let mut problem = BaProblem::new(camera);
+        for (k, t) in true_poses.iter().enumerate() {
+            let fixed = k < spec.fixed;
+            let camera_from_world = if fixed {
+                *t
+            } else {
+                perturb(t, 0.03, 1f64.to_radians(), rng)
+            };
+            problem.poses.push(BaPose {
+                camera_from_world,
+                fixed,
+            });
+        }
+        for (i, p) in true_points.iter().enumerate() {
+            for (k, t) in true_poses.iter().enumerate() {
+                let Some(uv) = project(&camera, t, p) else {
+                    continue;
+                };
+                let z = (t * Point3::from(*p)).z;
+                let depth = if z < spec.depth_range {
+                    z + rng.gaussian() * (0.0012 + 0.0019 * (z - 0.4) * (z - 0.4))
+                } else {
+                    0.0
+                };
+                let uv = if rng.uniform(0.0, 1.0) < spec.outlier_ratio {
+                    {
+                        let angle = rng.uniform(0.0, std::f64::consts::TAU);
+                        uv + Vector2::new(angle.cos(), angle.sin()) * rng.uniform(20.0, 60.0)
+                    }
+                } else {
+                    uv + Vector2::new(rng.gaussian(), rng.gaussian())
+                };
+                problem.point_observations.push(BaPointObservation {
+                    pose: k,
+                    point: i,
+                    uv,
+                    inv_sigma2: 1.0,
+                    depth,
+                });
+            }
+            problem.points.push(p + rng.gaussian3(0.03));
+        }
+        for (j, l) in true_lines.iter().enumerate() {
+            for (k, t) in true_poses.iter().enumerate() {
+                if let Some(coeffs) = observe_line(&camera, t, l, 1.0, rng) {
+                    problem.line_observations.push(BaLineObservation {
+                        pose: k,
+                        line: j,
+                        coeffs,
+                        inv_sigma2: 1.0,
+                    });
+                }
+            }
+            problem
+                .lines
+                .push([l[0] + rng.gaussian3(0.03), l[1] + rng.gaussian3(0.03)]);
+            problem.manhattan.push(BaManhattan {
+                line: j,
+                axis: AXES[line_axis[j]],
+            });
+        }
+        let n = true_lines.len();
+        for i in 0..n {
+            // Lines i, i+3, i+6... share an axis; i+1, i+2 are perpendicular to i.
+            for step in 1..=spec.partners {
+                if i + 3 * step < n {
+                    problem.parallel.push((i, i + 3 * step));
+                }
+                let other = i + (if step % 2 == 1 { 1 } else { 2 }) + 3 * ((step - 1) / 2);
+                if other < n {
+                    problem.perpendicular.push((i, other));
+                }
+            }
+        }
+        Self {
+            true_poses,
+            true_points,
+            true_lines,
+            line_axis,
+            problem,
+        }
+    }
+
+    /// Largest camera-centre error (m) and rotation error (deg) over the poses.
+    pub fn max_pose_error(&self) -> (f64, f64) {
+        self.problem
+            .poses
+            .iter()
+            .zip(&self.true_poses)
+            .map(|(p, t)| pose_error(&p.camera_from_world, t))
+            .fold((0.0, 0.0), |(a, b), (c, d)| {
+                (f64::max(a, c), f64::max(b, d))
+            })
+    }
+
+    /// Mean angle (deg) between the estimated lines and their true axes.
+    pub fn mean_line_direction_error(&self) -> f64 {
+        let sum: f64 = self
+            .problem
+            .lines
+            .iter()
+            .zip(&self.line_axis)
+            .map(|(l, &a)| direction_error_deg(l, &AXES[a]))
+            .sum();
+        sum / self.problem.lines.len() as f64
+    }
+
+    /// RMS distance (m) of the estimated points to the true ones.
+    pub fn point_rms(&self) -> f64 {
+        let sum: f64 = self
+            .problem
+            .points
+            .iter()
+            .zip(&self.true_points)
+            .map(|(p, t)| (p - t).norm_squared())
+            .sum();
+        (sum / self.true_points.len() as f64).sqrt()
+    }
+}

@@ -1,0 +1,177 @@
+//! Local BA on a synthetic scene: 8 keyframes along a path, 300 points, 60 lines on
+//! three orthogonal directions, 1 px observation noise, noisy initial values.
+
+mod common;
+
+use common::{BaScene, BaSceneSpec, Rng};
+use gfs_optim::{BaConfig, BaError, BaResult, LocalBundleAdjuster};
+
+fn spec() -> BaSceneSpec {
+    BaSceneSpec {
+        keyframes: 8,
+        points: 300,
+        lines: 60,
+        fixed: 2,
+        partners: 2,
+        outlier_ratio: 0.0,
+        depth_range: 3.2,
+    }
+}
+
+fn run(scene: &mut BaScene, config: &BaConfig) -> BaResult {
+    let mut result = BaResult::default();
+    LocalBundleAdjuster::new()
+        .optimize(&mut scene.problem, config, &mut result)
+        .expect("valid problem");
+    result
+}
+
+#[test]
+fn recovers_poses_and_structure_makes_lines_straighter() {
+    let no_structure = BaConfig {
+        parallel_weight: 0.0,
+        perpendicular_weight: 0.0,
+        manhattan_weight: 0.0,
+        ..BaConfig::default()
+    };
+    for seed in 0..3 {
+        let mut with = BaScene::new(&spec(), &mut Rng::new(seed));
+        let mut without = BaScene::new(&spec(), &mut Rng::new(seed));
+        let (t0, r0) = with.max_pose_error();
+        let (dir0, pts0) = (with.mean_line_direction_error(), with.point_rms());
+        let result = run(&mut with, &BaConfig::default());
+        let plain = run(&mut without, &no_structure);
+        let (t1, r1) = with.max_pose_error();
+        let (t2, r2) = without.max_pose_error();
+        let (dir1, dir2) = (
+            with.mean_line_direction_error(),
+            without.mean_line_direction_error(),
+        );
+        println!(
+            "seed {seed}: poses {:.1} mm {:.2} deg -> {:.2} mm {:.3} deg (no structure {:.2} mm \
+             {:.3} deg); points rms {:.1} -> {:.1} mm; line direction error {:.3} -> {:.4} deg \
+             (no structure {:.3} deg); cost {:.0} -> {:.0}; {} iterations, converged {}",
+            t0 * 1e3,
+            r0,
+            t1 * 1e3,
+            r1,
+            t2 * 1e3,
+            r2,
+            pts0 * 1e3,
+            with.point_rms() * 1e3,
+            dir0,
+            dir1,
+            dir2,
+            result.initial_cost,
+            result.final_cost,
+            result.iterations,
+            result.converged
+        );
+        assert!(result.final_cost < 0.05 * result.initial_cost);
+        assert!(t1 < 0.008 && r1 < 0.2, "poses {t1} m {r1} deg");
+        assert!(
+            t2 < 0.008 && r2 < 0.2,
+            "poses without structure {t2} m {r2} deg"
+        );
+        assert!(t1 < 0.3 * t0, "poses improve: {t0} -> {t1} m");
+        assert!(dir1 < 0.05, "structural + Manhattan: {dir1} deg");
+        assert!(dir1 < 0.3 * dir2, "structure helps: {dir1} vs {dir2} deg");
+        let rejected = plain
+            .inliers
+            .point_observations
+            .iter()
+            .filter(|f| !**f)
+            .count();
+        assert!((rejected as f64) < 0.08 * plain.inliers.point_observations.len() as f64);
+    }
+}
+
+#[test]
+fn flags_outlier_observations_and_a_wrong_parallel_pair() {
+    let mut spec = spec();
+    spec.outlier_ratio = 0.05;
+    let mut scene = BaScene::new(&spec, &mut Rng::new(11));
+    // Lines 0 and 1 have perpendicular axes: declaring them parallel is wrong.
+    scene.problem.parallel.push((0, 1));
+    let wrong = scene.problem.parallel.len() - 1;
+    let result = run(&mut scene, &BaConfig::default());
+    assert!(!result.inliers.parallel[wrong], "the wrong pair is flagged");
+    let good_pairs = result.inliers.parallel[..wrong]
+        .iter()
+        .filter(|f| **f)
+        .count();
+    assert_eq!(good_pairs, wrong, "true pairs stay inliers");
+    let (t, r) = scene.max_pose_error();
+    let flagged = result
+        .inliers
+        .point_observations
+        .iter()
+        .filter(|f| !**f)
+        .count();
+    let total = result.inliers.point_observations.len();
+    println!(
+        "5 % outliers: poses {:.2} mm {:.3} deg, {flagged} of {total} flagged",
+        t * 1e3,
+        r
+    );
+    // Outliers removal leaves some points with one 2D observation: weaker than clean.
+    assert!(t < 0.02 && r < 0.3, "{t} m {r} deg");
+    // About 5 % outliers plus about 5 % of true inliers beyond the 95 % quantile.
+    assert!((flagged as f64) > 0.05 * total as f64 && (flagged as f64) < 0.13 * total as f64);
+    assert!(scene.mean_line_direction_error() < 0.05);
+}
+
+#[test]
+fn invalid_problems_are_errors() {
+    let mut scene = BaScene::new(
+        &BaSceneSpec {
+            points: 20,
+            lines: 6,
+            ..spec()
+        },
+        &mut Rng::new(3),
+    );
+    let mut adjuster = LocalBundleAdjuster::new();
+    let mut result = BaResult::default();
+    let mut bad = scene.problem.clone();
+    bad.point_observations[3].point = 999;
+    let err = adjuster
+        .optimize(&mut bad, &BaConfig::default(), &mut result)
+        .unwrap_err();
+    assert_eq!(
+        err,
+        BaError::IndexOutOfRange {
+            list: "point_observations",
+            entry: 3,
+            field: "point",
+            index: 999,
+            len: 20
+        }
+    );
+    let mut bad = scene.problem.clone();
+    bad.poses.iter_mut().for_each(|p| p.fixed = false);
+    let err = adjuster
+        .optimize(&mut bad, &BaConfig::default(), &mut result)
+        .unwrap_err();
+    assert_eq!(err, BaError::NoFixedPose { poses: 8 });
+    let mut bad = scene.problem.clone();
+    bad.lines[2][1].x = f64::NAN;
+    let err = adjuster
+        .optimize(&mut bad, &BaConfig::default(), &mut result)
+        .unwrap_err();
+    assert_eq!(
+        err,
+        BaError::NonFinite {
+            list: "lines",
+            entry: 2
+        }
+    );
+    // All poses fixed: only landmarks move, no reduced system at all.
+    scene.problem.poses.iter_mut().for_each(|p| p.fixed = true);
+    scene.problem.parallel.clear();
+    scene.problem.perpendicular.clear();
+    adjuster
+        .optimize(&mut scene.problem, &BaConfig::default(), &mut result)
+        .expect("valid");
+    assert!(result.final_cost < result.initial_cost);
+}
