@@ -44,6 +44,7 @@ mod decode;
 mod depth;
 mod error;
 mod lists;
+pub mod plot;
 
 mod reader;
 mod sequence;

@@ -202,14 +202,35 @@ fn angle(q: &UnitQuaternion<f64>) -> f64 {
     2.0 * q.imag().norm().atan2(q.scalar().abs())
 }
 
-/// RPE over given pairs: `E = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j)` with `Q` the ground truth and
-/// `P` the estimate; the errors are `|trans(E)|` and the rotation angle of `E`.
-fn rpe_over(gt: &Trajectory, est: &Trajectory, pairs: Vec<(usize, usize)>) -> Option<Rpe> {
+/// How the relative error of a pair is composed from the relative motions
+/// `A = P_i^-1 P_j` (estimate) and `B = Q_i^-1 Q_j` (ground truth). The rotation angle is
+/// the same either way; the translation differs to second order in the rotation error.
+#[derive(Clone, Copy)]
+enum ErrorOrder {
+    /// evo: `E = B^-1 A`.
+    Evo,
+    /// TUM `evaluate_rpe.py`: `E = A B^-1` (its `ominus(ominus(est_j, est_i), ...)`).
+    Tum,
+}
+
+/// RPE over given pairs, with `Q` the ground truth and `P` the estimate; the errors are
+/// `|trans(E)|` and the rotation angle of `E`.
+fn rpe_over(
+    gt: &Trajectory,
+    est: &Trajectory,
+    pairs: Vec<(usize, usize)>,
+    order: ErrorOrder,
+) -> Option<Rpe> {
     let (q, p) = (gt.poses(), est.poses());
     let mut trans_errors_m = Vec::with_capacity(pairs.len());
     let mut rot_errors_deg = Vec::with_capacity(pairs.len());
     for &(i, j) in &pairs {
-        let e = (q[i].inverse() * q[j]).inverse() * (p[i].inverse() * p[j]);
+        let a = p[i].inverse() * p[j];
+        let b = q[i].inverse() * q[j];
+        let e = match order {
+            ErrorOrder::Evo => b.inverse() * a,
+            ErrorOrder::Tum => a * b.inverse(),
+        };
         trans_errors_m.push(e.translation.vector.norm());
         rot_errors_deg.push(angle(&e.rotation).to_degrees());
     }
@@ -230,12 +251,16 @@ pub fn rpe_per_frame(gt_matched: &Trajectory, est_matched: &Trajectory) -> Optio
         gt_matched,
         est_matched,
         (1..n).map(|j| (j - 1, j)).collect(),
+        ErrorOrder::Evo,
     )
 }
 
 /// RPE over 1 s, as `evaluate_rpe.py --fixed_delta --delta 1 --delta_unit s`: every
 /// matched pose `i` is paired with the matched pose whose stamp is closest to `t_i + 1 s`,
-/// unless that is the last pose (the search ran off the end) or `i` itself.
+/// unless that is the last pose (the search ran off the end) or `i` itself; the error is
+/// composed as that tool does (`E = A B^-1`, see `ErrorOrder`). Unlike the tool, which
+/// pairs each estimate with the ground truth within two ground-truth periods, the
+/// poses are those matched within `max_diff`.
 pub fn rpe_per_second(gt_matched: &Trajectory, est_matched: &Trajectory) -> Option<Rpe> {
     const DELTA_S: f64 = 1.0;
     let stamps = est_matched.timestamps();
@@ -247,5 +272,5 @@ pub fn rpe_per_second(gt_matched: &Trajectory, est_matched: &Trajectory) -> Opti
             (j + 1 != n && j > i).then_some((i, j))
         })
         .collect();
-    rpe_over(gt_matched, est_matched, pairs)
+    rpe_over(gt_matched, est_matched, pairs, ErrorOrder::Tum)
 }

@@ -123,13 +123,15 @@ fn hand_computed_rpe_per_frame_and_per_second() {
     assert_eq!(rpe.pairs.len(), 29);
     assert!((rpe.trans_m.rmse - 0.1).abs() < 1e-12 && (rpe.trans_m.max - 0.1).abs() < 1e-12);
     assert!((rpe.rot_deg.mean - 1.0).abs() < 1e-9 && rpe.rot_deg.std < 1e-9);
-    // Over 1 s = 10 frames: E = G^-10 D^10 = (Rz(10 deg), sum_m Rz(m deg) (1.1, 0, 0) - (10, 0, 0)).
+    // Over 1 s = 10 frames, composed as TUM's tool does: E = D^10 G^-10
+    // = (Rz(10 deg), t10 - Rz(10 deg) (10, 0, 0)) with t10 = sum_m Rz(m deg) (1.1, 0, 0).
     let mut t10 = Vector3::zeros();
     for m in 0..10 {
         let a = (m as f64).to_radians();
         t10 += Vector3::new(1.1 * a.cos(), 1.1 * a.sin(), 0.0);
     }
-    let want = (t10 - Vector3::new(10.0, 0.0, 0.0)).norm();
+    let r10 = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 10f64.to_radians());
+    let want = (t10 - r10 * Vector3::new(10.0, 0.0, 0.0)).norm();
     let rpe_s = eval.rpe_second.unwrap();
     // Pairs (i, i + 10) while i + 10 is not the last pose (index 29): i = 0..=18.
     assert_eq!(rpe_s.pairs.len(), 19);
