@@ -72,9 +72,23 @@ pub(crate) fn find_anchors(
                     | ((m == right[i]) & (m >= right2[i].saturating_add(t))));
             row_flags[i] = u8::from(horizontal | vertical);
         }
-        for (i, &f) in row_flags.iter().enumerate() {
-            if f != 0 {
-                out.push(u64::from(mid[i]) << 32 | (row + i + 1) as u64);
+        // Anchors are sparse: skip eight flags at a time.
+        let chunks = row_flags.chunks_exact(8);
+        let tail_start = n - chunks.remainder().len();
+        let mut push = |i: usize| out.push(u64::from(mid[i]) << 32 | (row + i + 1) as u64);
+        for (k, chunk) in chunks.enumerate() {
+            let mut word = [0u8; 8];
+            word.copy_from_slice(chunk);
+            let mut bits = u64::from_le_bytes(word);
+            while bits != 0 {
+                let byte = bits.trailing_zeros() / 8;
+                bits &= !(0xff << (8 * byte));
+                push(8 * k + byte as usize);
+            }
+        }
+        for i in tail_start..n {
+            if row_flags[i] != 0 {
+                push(i);
             }
         }
     }

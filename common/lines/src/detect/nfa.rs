@@ -122,8 +122,17 @@ pub(crate) fn validate(
     let (nu, nv) = (tv, -tu);
     let cos2 = cos_tolerance * cos_tolerance;
     let n = len as usize + 1;
+    let need = table.min_aligned(n);
     let (mut along, mut against) = (0usize, 0usize);
     for s in 0..n {
+        // Stop as soon as the outcome is known: long real edges reach `need` after a
+        // fraction of their samples, noise falls short early.
+        if along >= need || against >= need {
+            break;
+        }
+        if along.max(against) + (n - s) < need {
+            return invalid;
+        }
         let (u, v) = (seg[0] + s as f32 * tu, seg[1] + s as f32 * tv);
         // The 2x2 window (x..x+1, y..y+1) whose centre is nearest: x = floor(u).
         let x = (u.max(0.0) as usize).min(w - 2);
@@ -147,9 +156,8 @@ pub(crate) fn validate(
             }
         }
     }
-    let k = along.max(against);
     Evidence {
-        valid: k >= table.min_aligned(n),
+        valid: along.max(against) >= need,
         bright_on_normal_side: along >= against,
     }
 }
