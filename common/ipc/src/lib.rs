@@ -19,14 +19,37 @@
 //!   [`gfs_core::ImageView`]s; features are `&[T]` of `ZeroCopySend + Copy` structs;
 //!   rare variable messages are bincode ([`codec`]) decoded with a size limit, and a
 //!   malformed one is logged and dropped.
-//! - The same code runs between processes (`iceoryx2::prelude::ipc::Service`) or between
-//!   threads of one process (`iceoryx2::prelude::local::Service`).
+//! - The same code runs between processes ([`ipc::Service`]) or between threads of one
+//!   process ([`local::Service`]): every port is generic over the [`Service`] variant.
+//! - Wake-ups: each topic also has an iceoryx2 event service; a publisher notifies it on
+//!   every send and [`TopicSubscriber::wait`] sleeps until then (bounded by a timeout).
+//! - Wire structs for features are defined by the services as `#[repr(C)]` types with
+//!   `#[derive(ZeroCopySend)]` (re-exported here, so a service needs no direct iceoryx2
+//!   dependency) and `#[type_name("gfsvo::...")]`, a stable name both ends agree on.
+//!
+//! **iceoryx2 0.10 behaviour to know** (each one cost a debugging session):
+//! - History is delivered to a new subscriber only when the *publisher* updates its
+//!   connections (on `send`, or [`TopicPublisher::update_connections`]). A lockstep
+//!   publisher idling while a restarted stage waits for history must call it; and a
+//!   subscriber receives at most `min(history, its buffer)` old samples, without a wake-up.
+//! - Shared memory per publisher is preallocated for the worst case,
+//!   `max_subscribers * (buffer + borrowed) + history + loans` samples of the initial
+//!   slice length; longer loans grow it (power-of-two) by mapping new segments.
+//! - `[u8]` payloads are 1-byte aligned unless the service asks for more: every topic
+//!   asks for [`PAYLOAD_ALIGNMENT`] so that `f32` planes can be read in place.
+//! - Event sockets live at `<root><prefix><39-digit id>.event` and must fit the 107
+//!   bytes of a Unix socket path: run ids are short and the root stays `/tmp/iceoryx2/`.
+//! - Each prefix ("domain") has a node-counter segment `…global_mgmt` in `/dev/shm` that
+//!   no node removes; [`IpcRun::finish`] removes it when the run is over.
+//! - A SIGKILLed process's node, ports, connections and data segments stay until some
+//!   process calls [`IpcRun::cleanup_dead_nodes`] (new nodes and opened services also
+//!   clean up dead nodes by default); its samples then return to the publishers.
 //!
 //! ```
 //! use gfs_core::{ids::FrameId, Image};
 //! use gfs_ipc::{frame_view, FrameImages, IpcRun, Mode, MsgHeader, RunId, Stage, TopicKind,
 //!     TopicPublisher, TopicQos, TopicSubscriber};
-//! use iceoryx2::prelude::local;
+//! use gfs_ipc::local;
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let run = IpcRun::new(RunId::unique("doc")?)?;
 //! let node = run.node::<local::Service>("source")?;
@@ -68,3 +91,8 @@ pub use messages::{frame_view, frame_view_mut};
 pub use qos::{Mode, TopicKind, TopicQos};
 pub use run::{CleanupReport, IPC_ROOT, IpcRun, NodeInfo, RUN_ID_ENV, RunId, SHM_DIR};
 pub use topic::{PAYLOAD_ALIGNMENT, TopicPublisher, TopicSample, TopicSampleMut, TopicSubscriber};
+
+/// The iceoryx2 names a stage needs: the service variants, the variant trait, and the
+/// `ZeroCopySend` trait + derive for wire structs.
+pub use iceoryx2::prelude::{ZeroCopySend, ipc, local};
+pub use iceoryx2::service::Service;

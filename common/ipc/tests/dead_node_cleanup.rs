@@ -10,10 +10,10 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use gfs_core::ids::FrameId;
+use gfs_ipc::ipc;
 use gfs_ipc::{
     IpcRun, Mode, MsgHeader, RunId, TopicKind, TopicPublisher, TopicQos, TopicSubscriber,
 };
-use iceoryx2::prelude::ipc;
 
 const CHILD_ENV: &str = "GFS_IPC_TEST_CHILD";
 /// The child never outlives the test by more than this, even if the parent dies first.

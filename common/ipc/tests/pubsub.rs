@@ -9,8 +9,7 @@ use gfs_ipc::{
     FrameImages, FrameLayout, IpcRun, Mode, MsgHeader, RunId, Stage, StageStamp, TopicKind,
     TopicPublisher, TopicQos, TopicSubscriber, frame_view, frame_view_mut,
 };
-use iceoryx2::prelude::{ZeroCopySend, ipc, local};
-use iceoryx2::service::Service;
+use gfs_ipc::{Service, ZeroCopySend, ipc, local};
 use serde::{Deserialize, Serialize};
 
 /// FNV-1a over bytes: a payload checksum that any flipped or shifted byte changes.
