@@ -1,0 +1,96 @@
+//! Descriptor distances and the best / second-best search the tracker's matchers use.
+
+use crate::keypoint::Descriptor;
+
+/// Hamming distance between two descriptors (0..=256).
+#[inline]
+pub fn hamming(a: &Descriptor, b: &Descriptor) -> u32 {
+    (a[0] ^ b[0]).count_ones()
+        + (a[1] ^ b[1]).count_ones()
+        + (a[2] ^ b[2]).count_ones()
+        + (a[3] ^ b[3]).count_ones()
+}
+
+/// The closest candidate to a query and the distance of the runner-up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BestMatch {
+    /// Identifier of the closest candidate (as given to [`best_two`]).
+    pub index: usize,
+    /// Its Hamming distance.
+    pub distance: u32,
+    /// Distance of the second-closest candidate; `u32::MAX` when there was only one.
+    pub second: u32,
+}
+
+impl BestMatch {
+    /// Lowe's ratio test as ORB-SLAM2 applies it: accepted when
+    /// `distance < ratio * second` (always accepted without a runner-up).
+    pub fn passes_ratio(&self, ratio: f32) -> bool {
+        self.second == u32::MAX || (self.distance as f32) < ratio * self.second as f32
+    }
+}
+
+/// The closest and second-closest of `candidates` (pairs of an identifier and a
+/// descriptor) to `query`; `None` when there is no candidate. Ties keep the first.
+pub fn best_two<'a>(
+    query: &Descriptor,
+    candidates: impl IntoIterator<Item = (usize, &'a Descriptor)>,
+) -> Option<BestMatch> {
+    let mut best: Option<BestMatch> = None;
+    for (index, d) in candidates {
+        let distance = hamming(query, d);
+        match &mut best {
+            None => {
+                best = Some(BestMatch {
+                    index,
+                    distance,
+                    second: u32::MAX,
+                })
+            }
+            Some(b) if distance < b.distance => {
+                b.second = b.distance;
+                b.distance = distance;
+                b.index = index;
+            }
+            Some(b) if distance < b.second => b.second = distance,
+            Some(_) => {}
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distances_and_ratio() {
+        let a = [0u64; 4];
+        let b = [u64::MAX, 0, 1, 0b111];
+        assert_eq!(hamming(&a, &b), 68);
+        assert_eq!(hamming(&b, &b), 0);
+        assert_eq!(hamming(&a, &[u64::MAX; 4]), 256);
+
+        let cands = [[0b1u64, 0, 0, 0], [0b1111, 0, 0, 0], [0b11, 0, 0, 0]];
+        let m = best_two(&a, cands.iter().enumerate().map(|(i, d)| (i + 10, d))).unwrap();
+        assert_eq!(
+            m,
+            BestMatch {
+                index: 10,
+                distance: 1,
+                second: 2
+            }
+        );
+        assert!(m.passes_ratio(0.6));
+        let close = BestMatch {
+            index: 0,
+            distance: 50,
+            second: 60,
+        };
+        assert!(!close.passes_ratio(0.8) && close.passes_ratio(0.9));
+        assert_eq!(best_two(&a, std::iter::empty()), None);
+        let alone = best_two(&a, [(3, &b)]).unwrap();
+        assert_eq!((alone.index, alone.second), (3, u32::MAX));
+        assert!(alone.passes_ratio(0.1));
+    }
+}
