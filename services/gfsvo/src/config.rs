@@ -17,6 +17,9 @@ pub struct Config {
     /// `[depth]`: depth scale and valid range.
     #[serde(default)]
     pub depth: DepthConfig,
+    /// `[lines]`: line detection, homogenisation, LBD and 3D lines.
+    #[serde(default)]
+    pub lines: gfs_lines::LineConfig,
 }
 
 /// The built-in configs, by name (the file stem in `configs/`).

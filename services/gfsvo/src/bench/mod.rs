@@ -35,6 +35,13 @@ pub struct BenchArgs {
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// `bench lines`: draw the lines of frame --image-frame into this PNG (before
+    /// homogenisation on the left, after on the right).
+    #[arg(long)]
+    pub image_out: Option<PathBuf>,
+    /// `bench lines`: the frame (0-based) drawn by --image-out.
+    #[arg(long, default_value_t = 0)]
+    pub image_frame: usize,
 }
 
 /// Runs one benchmark.
