@@ -74,8 +74,12 @@ pub struct LbdConfig {
     /// Rows (pixels) per band. Default 7, the LBD paper's and OpenCV's choice.
     pub band_width: usize,
     /// Step along the segment between samples, pixels. Default 1.0 (every pixel, as
-    /// OpenCV); 2.0 halves the cost on long lines.
+    /// OpenCV).
     pub step: f32,
+    /// Most samples along one segment; longer segments are sampled evenly with a
+    /// larger step. Default 64: the band statistics are means along the line, so a
+    /// long line needs no more samples, and the cost per line stays bounded.
+    pub max_samples: usize,
 }
 
 impl Default for LbdConfig {
@@ -83,6 +87,7 @@ impl Default for LbdConfig {
         Self {
             band_width: 7,
             step: 1.0,
+            max_samples: 64,
         }
     }
 }
@@ -128,6 +133,7 @@ impl LbdExtractor {
             config: LbdConfig {
                 band_width: w,
                 step: config.step.max(0.25),
+                max_samples: config.max_samples.max(2),
             },
             global,
             offsets,
@@ -203,38 +209,36 @@ impl LbdExtractor {
         );
         // Provisional normal (rotated +90 degrees from the direction).
         let (nu, nv) = (-dv, du);
-        let (w, h) = (gx.width() as isize, gx.height() as isize);
-        let (sx, sy) = (gx.stride() as isize, gy.stride() as isize);
+        let (w, h) = (gx.width() as f32, gx.height() as f32);
+        let (sx, sy) = (gx.stride(), gy.stride());
         let (dx_data, dy_data) = (gx.as_slice(), gy.as_slice());
         for r in &mut self.rows {
             *r = [0.0; 4];
         }
-        let step = self.config.step;
-        let samples = (len / step).floor() as usize + 1;
+        let samples = ((len / self.config.step).floor() as usize + 1).min(self.config.max_samples);
+        let spacing = len / (samples - 1).max(1) as f32;
         for i in 0..samples {
-            let t = i as f32 * step;
-            let (pu, pv) = (segment.start[0] + t * du, segment.start[1] + t * dv);
+            let t = i as f32 * spacing;
+            // +0.5 so that truncation rounds to the nearest pixel (coordinates >= 0).
+            let (pu, pv) = (
+                segment.start[0] + t * du + 0.5,
+                segment.start[1] + t * dv + 0.5,
+            );
             for (row, &o) in self.rows.iter_mut().zip(&self.offsets) {
-                let x = (pu + o * nu).round() as isize;
-                let y = (pv + o * nv).round() as isize;
-                if x < 0 || y < 0 || x >= w || y >= h {
+                let (xf, yf) = (pu + o * nu, pv + o * nv);
+                if !(xf >= 0.0 && yf >= 0.0 && xf < w && yf < h) {
                     continue;
                 }
-                let gu = f32::from(dx_data[(y * sx + x) as usize]);
-                let gv = f32::from(dy_data[(y * sy + x) as usize]);
+                let (x, y) = (xf as usize, yf as usize);
+                let gu = f32::from(dx_data[y * sx + x]);
+                let gv = f32::from(dy_data[y * sy + x]);
                 let perp = gu * nu + gv * nv;
                 let along = gu * du + gv * dv;
-                // Positive and negative parts (LBD's four accumulators).
-                if perp > 0.0 {
-                    row[0] += perp;
-                } else {
-                    row[1] -= perp;
-                }
-                if along > 0.0 {
-                    row[2] += along;
-                } else {
-                    row[3] -= along;
-                }
+                // Positive and negative parts (LBD's four accumulators), branch-free.
+                row[0] += perp.max(0.0);
+                row[1] += (-perp).max(0.0);
+                row[2] += along.max(0.0);
+                row[3] += (-along).max(0.0);
             }
         }
         // Orient by the gradient: the normal must point along the mean gradient across
