@@ -35,6 +35,14 @@ pub enum IpcError {
         /// iceoryx2 reason.
         reason: NodeCreationFailure,
     },
+    /// SIGINT / SIGTERM arrived while a stage node was being set up.
+    #[error("run {run}: termination requested while creating node {node:?}")]
+    TerminationRequested {
+        /// Run id.
+        run: String,
+        /// Node name.
+        node: String,
+    },
     /// The nodes of a run could not be listed (dead-node scan).
     #[error("run {run}: cannot list nodes: {reason:?}")]
     NodeList {

@@ -13,15 +13,17 @@
 //! say which run they are about.
 
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use iceoryx2::config::Config;
-use iceoryx2::node::{NodeBuilder, NodeState, NodeView};
+use iceoryx2::node::{NodeBuilder, NodeState, NodeView, NodeWaitFailure};
 use iceoryx2::prelude::{
     CallbackProgression, FileName, Node, NodeName, SemanticString, ServiceName, SignalHandlingMode,
 };
 use iceoryx2::service::Service;
 
 use crate::error::IpcError;
+use crate::header::Stage;
 
 /// Environment variable through which a supervisor hands its run id to the stage
 /// processes it starts.
@@ -190,13 +192,21 @@ impl IpcRun {
     /// Creates the node `name` of this run over the service variant `S`
     /// (`ipc::Service` between processes, `local::Service` between threads).
     ///
-    /// Signal handling is left to the caller (`SignalHandlingMode::Disabled`): a stage
-    /// installs its own SIGTERM handling, and a library must not take signals over.
+    /// Signal handling is left to the caller (`SignalHandlingMode::Disabled`): a library
+    /// or a test must not take signals over. Stage processes use [`Self::stage_node`].
     ///
     /// # Errors
     /// [`IpcError::InvalidName`] for a bad node name, [`IpcError::Node`] when iceoryx2
     /// cannot create the node (permissions, corrupted run directory).
     pub fn node<S: Service>(&self, name: &str) -> Result<Node<S>, IpcError> {
+        self.build_node(name, SignalHandlingMode::Disabled)
+    }
+
+    fn build_node<S: Service>(
+        &self,
+        name: &str,
+        signals: SignalHandlingMode,
+    ) -> Result<Node<S>, IpcError> {
         let node_name = NodeName::new(name).map_err(|e| IpcError::InvalidName {
             what: "node name",
             value: name.to_string(),
@@ -205,13 +215,36 @@ impl IpcRun {
         NodeBuilder::new()
             .name(&node_name)
             .config(&self.config)
-            .signal_handling_mode(SignalHandlingMode::Disabled)
+            .signal_handling_mode(signals)
             .create::<S>()
             .map_err(|reason| IpcError::Node {
                 run: self.run_id.to_string(),
                 node: name.to_string(),
                 reason,
             })
+    }
+
+    /// Creates the node of a pipeline stage process, named after the stage, with
+    /// iceoryx2's SIGINT / SIGTERM handlers installed: after such a signal the next
+    /// `node.wait(..)` returns `Err(NodeWaitFailure::TerminationRequest)`, so the stage
+    /// loop ends, drops its ports and exits cleanly instead of dying with its resources
+    /// left behind. The request is reported once (iceoryx2 resets it when read): stop on
+    /// the first one.
+    ///
+    /// # Errors
+    /// As [`Self::node`]; [`IpcError::TerminationRequested`] when a signal arrived while
+    /// the handlers were being installed.
+    pub fn stage_node<S: Service>(&self, stage: Stage) -> Result<Node<S>, IpcError> {
+        let node = self.build_node(stage.name(), SignalHandlingMode::HandleTerminationRequests)?;
+        // iceoryx2 installs its handlers on the first termination check; do it now so a
+        // SIGTERM before the stage loop's first wait is caught rather than fatal.
+        match node.wait(Duration::ZERO) {
+            Err(NodeWaitFailure::TerminationRequest) => Err(IpcError::TerminationRequested {
+                run: self.run_id.to_string(),
+                node: stage.name().to_string(),
+            }),
+            Ok(()) | Err(NodeWaitFailure::Interrupt) => Ok(node),
+        }
     }
 
     /// Every node of the run with its liveness (a dead node's process died without
