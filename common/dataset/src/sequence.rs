@@ -15,6 +15,27 @@ pub const DEFAULT_READ_AHEAD: usize = 3;
 
 /// The frames of a dataset folder: the lists are read at [`Sequence::open`]; images are
 /// decoded on demand ([`Sequence::load`]) or ahead on a thread ([`Sequence::frames`]).
+///
+/// ```no_run
+/// use gfs_core::camera::{Camera, PinholeCamera, Distortion};
+/// use gfs_dataset::{DepthConfig, Sequence};
+/// let camera = Camera {
+///     pinhole: PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480),
+///     distortion: Distortion::default(),
+/// };
+/// let seq = Sequence::open("data/fr1_xyz".as_ref(), &camera, &DepthConfig::default())?;
+/// let mut reader = seq.frames(None);
+/// while let Some(frame) = reader.next() {
+///     match frame {
+///         Ok(frame) => {
+///             println!("frame {} at {:.3} s", frame.id, frame.timestamp);
+///             reader.recycle(frame); // its buffers serve a later frame
+///         }
+///         Err(e) => eprintln!("skipping: {e}"),
+///     }
+/// }
+/// # Ok::<(), gfs_dataset::DatasetError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct Sequence {
     dir: PathBuf,

@@ -7,20 +7,24 @@ use gfs_dataset::{EVO_MAX_DIFF_S, Evaluation, Stats, Trajectory, evaluate};
 use serde_json::json;
 use std::path::PathBuf;
 
+/// What `gfsvo eval` computes, printed under `--help`.
+const ABOUT_METRICS: &str = "\
+Both files are TUM trajectories (`timestamp tx ty tz qx qy qz qw`, camera-to-world).
+Poses are associated by timestamp (for each pose of the sparser file, the closest pose
+of the other within --max-diff, as evo does), then:
+  ATE            position error after SE(3) Umeyama alignment of the estimate onto the
+                 ground truth, no scale (= evo_ape tum GT EST --align)
+  RPE / frame    relative pose error between consecutive matched poses, translation m
+                 and rotation deg (= evo_rpe tum GT EST, delta 1 frame)
+  RPE / second   the same over matched poses about 1 s apart
+                 (= TUM evaluate_rpe.py --fixed_delta --delta 1 --delta_unit s)
+
+Example:
+  gfsvo eval --gt data/fr1_rpy/groundtruth.txt --est traj.txt --plot eval.png";
+
 /// Arguments of `gfsvo eval`.
-///
-/// Both files are TUM trajectories (`timestamp tx ty tz qx qy qz qw`, camera-to-world).
-/// Poses are associated by timestamp (closest within --max-diff, as evo does), the
-/// estimate is aligned onto the ground truth with SE(3) Umeyama (no scale), then:
-/// ATE = position error after alignment (= `evo_ape tum GT EST --align`);
-/// RPE per frame = relative pose error between consecutive matched poses
-/// (= `evo_rpe tum GT EST`, translation m and rotation deg);
-/// RPE per second = the same over pairs about 1 s apart (TUM `evaluate_rpe.py
-/// --fixed_delta`).
 #[derive(clap::Args)]
-#[command(
-    after_help = "Example:\n  gfsvo eval --gt data/fr1_rpy/groundtruth.txt --est traj.txt --plot eval.png"
-)]
+#[command(after_help = ABOUT_METRICS)]
 pub struct EvalArgs {
     /// Ground-truth trajectory (TUM format).
     #[arg(long)]
