@@ -3,105 +3,9 @@
 
 mod common;
 
-use common::{
-    Rng, axis_line, camera, line_through, observe_line, perturb, point_at_pixel, pose_error,
-    project,
-};
-use gfs_core::camera::PinholeCamera;
-use gfs_optim::{
-    LineObservation, PointObservation, PoseOptimizerConfig, PoseResult, optimize_pose,
-};
+use common::{Rng, camera, perturb, pose_error, synthetic_frame};
+use gfs_optim::{PointObservation, PoseOptimizerConfig, PoseResult, optimize_pose};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector2, Vector3};
-
-/// A frame's observations with the truth about which are outliers.
-pub struct Frame {
-    pub points: Vec<PointObservation>,
-    pub lines: Vec<LineObservation>,
-    pub point_outlier: Vec<bool>,
-    pub line_outlier: Vec<bool>,
-}
-
-fn random_pixel(rng: &mut Rng) -> Vector2<f64> {
-    Vector2::new(rng.uniform(10.0, 629.0), rng.uniform(10.0, 469.0))
-}
-
-/// 300 points and 60 axis-aligned lines in view of `truth`, with outliers.
-fn synthetic_frame(
-    camera: &PinholeCamera,
-    truth: &Isometry3<f64>,
-    outlier_ratio: f64,
-    with_depth: bool,
-    rng: &mut Rng,
-) -> Frame {
-    let mut frame = Frame {
-        points: Vec::new(),
-        lines: Vec::new(),
-        point_outlier: Vec::new(),
-        line_outlier: Vec::new(),
-    };
-    while frame.points.len() < 300 {
-        let uv = random_pixel(rng);
-        let z = rng.uniform(1.0, 6.0);
-        let p_w = point_at_pixel(camera, truth, uv, z);
-        let outlier = rng.uniform(0.0, 1.0) < outlier_ratio;
-        let observed = if outlier {
-            let mut wrong = random_pixel(rng);
-            while (wrong - uv).norm() < 20.0 {
-                wrong = random_pixel(rng);
-            }
-            wrong
-        } else {
-            uv + Vector2::new(rng.gaussian(), rng.gaussian())
-        };
-        // Kinect-like depth noise for points closer than 3.2 m (ORB-SLAM2 TUM ThDepth).
-        let depth = if with_depth && z < 3.2 {
-            z + rng.gaussian() * (0.0012 + 0.0019 * (z - 0.4) * (z - 0.4))
-        } else {
-            0.0
-        };
-        frame.points.push(PointObservation {
-            point_in_world: p_w,
-            uv: observed,
-            inv_sigma2: 1.0,
-            depth,
-        });
-        frame.point_outlier.push(outlier);
-    }
-    while frame.lines.len() < 60 {
-        let centre = point_at_pixel(camera, truth, random_pixel(rng), rng.uniform(1.5, 5.0));
-        let line = axis_line(centre, frame.lines.len() % 3, rng.uniform(0.3, 1.2));
-        let Some(coeffs) = observe_line(camera, truth, &line, 1.0, rng) else {
-            continue;
-        };
-        let outlier = rng.uniform(0.0, 1.0) < outlier_ratio;
-        let coeffs = if outlier {
-            // A random image line that passes at least 20 px from the true endpoints.
-            let ends = [
-                project(camera, truth, &line[0]),
-                project(camera, truth, &line[1]),
-            ];
-            loop {
-                let c = line_through(random_pixel(rng), random_pixel(rng));
-                let far = ends
-                    .iter()
-                    .flatten()
-                    .any(|e| (c.x * e.x + c.y * e.y + c.z).abs() > 20.0);
-                if far {
-                    break c;
-                }
-            }
-        } else {
-            coeffs
-        };
-        frame.lines.push(LineObservation {
-            endpoints_in_world: line,
-            coeffs,
-            inv_sigma2: 1.0,
-        });
-        frame.line_outlier.push(outlier);
-    }
-    frame
-}
 
 fn true_pose() -> Isometry3<f64> {
     Isometry3::from_parts(
@@ -133,7 +37,7 @@ fn recovers_the_pose_and_flags_outliers() {
     for seed in 0..6 {
         let mut rng = Rng::new(100 + seed);
         let truth = true_pose();
-        let frame = synthetic_frame(&camera, &truth, 0.2, seed % 2 == 1, &mut rng);
+        let frame = synthetic_frame(&camera, &truth, 300, 60, 0.2, seed % 2 == 1, &mut rng);
         let initial = perturb(&truth, 0.10, 5f64.to_radians(), &mut rng);
         optimize_pose(
             &camera,
@@ -181,7 +85,7 @@ fn lines_alone_constrain_the_pose() {
     let camera = camera();
     let mut rng = Rng::new(7);
     let truth = true_pose();
-    let frame = synthetic_frame(&camera, &truth, 0.0, false, &mut rng);
+    let frame = synthetic_frame(&camera, &truth, 300, 60, 0.0, false, &mut rng);
     let initial = perturb(&truth, 0.05, 2f64.to_radians(), &mut rng);
     let mut result = PoseResult::default();
     optimize_pose(

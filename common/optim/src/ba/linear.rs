@@ -147,6 +147,13 @@ fn build_lists(
     }
 }
 
+/// Slot of the pose-pose block (`a`, `b`), `a >= b`: those slots are created first, row
+/// by row, so their index is arithmetic (no hashing in the Schur loops).
+#[inline]
+fn pose_pair_slot(a: usize, b: usize) -> usize {
+    a * (a + 1) / 2 + b
+}
+
 /// Writes a 6-vector into block `block` of `rhs`.
 fn set_rhs(rhs: &mut [f64], block: usize, value: &Vector6<f64>) {
     rhs[6 * block..6 * block + 6].copy_from_slice(value.as_slice());
@@ -342,7 +349,7 @@ impl ReducedSystem {
 
         for (i, &b) in self.pose_block.iter().enumerate() {
             if b != NONE {
-                self.slot_values[self.slot_of[&(b, b)]] += damp6(&lin.h_pose[i]);
+                self.slot_values[pose_pair_slot(b, b)] += damp6(&lin.h_pose[i]);
                 set_rhs(&mut self.rhs, b, &(-lin.g_pose[i]));
             }
         }
@@ -371,8 +378,8 @@ impl ReducedSystem {
             for (ya, &(_, ba)) in self.scratch_y3.iter().zip(list) {
                 for &(kb, bb) in list {
                     if ba >= bb {
-                        let slot = self.slot_of[&(ba, bb)];
-                        self.slot_values[slot] -= ya * lin.w_point_obs[kb].transpose();
+                        self.slot_values[pose_pair_slot(ba, bb)] -=
+                            ya * lin.w_point_obs[kb].transpose();
                     }
                 }
             }
@@ -407,8 +414,8 @@ impl ReducedSystem {
             for (ya, &(_, ba)) in self.scratch_y6.iter().zip(list) {
                 for &(kb, bb) in list {
                     if ba >= bb {
-                        let slot = self.slot_of[&(ba, bb)];
-                        self.slot_values[slot] -= ya * lin.w_line_obs[kb].transpose();
+                        self.slot_values[pose_pair_slot(ba, bb)] -=
+                            ya * lin.w_line_obs[kb].transpose();
                     }
                 }
             }

@@ -27,6 +27,8 @@ pub struct BaResult {
     pub final_cost: f64,
     /// LM iterations over both passes.
     pub iterations: usize,
+    /// Damped systems solved over both passes (iterations plus rejected steps).
+    pub linear_solves: usize,
     /// True when the second pass converged before its iteration limit; false means the
     /// estimate is the last one reached (still written to the problem).
     pub converged: bool,
@@ -41,6 +43,7 @@ pub struct LocalBundleAdjuster {
     linearization: Linearization,
     system: ReducedSystem,
     step: Step,
+    solves: usize,
 }
 
 impl LocalBundleAdjuster {
@@ -62,6 +65,7 @@ impl LocalBundleAdjuster {
         result: &mut BaResult,
     ) -> Result<(), BaError> {
         problem.validate()?;
+        self.solves = 0;
         self.values.copy_from_problem(problem);
         self.initial.clone_from(&self.values);
         self.linearization.resize(problem);
@@ -75,6 +79,7 @@ impl LocalBundleAdjuster {
             let (second, converged) = self.run_lm(&terms, flags, config.second_pass_iterations)?;
             terms.classify(&self.values, flags);
             result.iterations = first + second;
+            result.linear_solves = self.solves;
             result.converged = converged;
             result.initial_cost = terms.cost(&self.initial, flags, false).unwrap_or(0.0);
             result.final_cost = terms.cost(&self.values, flags, false).unwrap_or(0.0);
@@ -106,6 +111,7 @@ impl LocalBundleAdjuster {
         for iteration in 1..=max_iterations {
             let mut accepted = None;
             loop {
+                self.solves += 1;
                 if let Ok(predicted) =
                     self.system
                         .solve(problem, &self.linearization, &damping, &mut self.step)
