@@ -33,7 +33,7 @@
 //! let data = (0..w * h)
 //!     .map(|i| {
 //!         let (x, y) = (i % w, i / w);
-//!         if ((x / 16) + (y / 16)) % 2 == 0 { 40 + (x % 7) as u8 } else { 210 - (y % 5) as u8 }
+//!         if ((x / 16) + (y / 16)).is_multiple_of(2) { 40 + (x % 7) as u8 } else { 210 - (y % 5) as u8 }
 //!     })
 //!     .collect();
 //! let image = GrayImage::from_vec(w, h, data)?;
