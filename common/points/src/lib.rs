@@ -29,7 +29,7 @@
 //! use gfs_points::{OrbConfig, OrbExtractor, OrbFeatures, KeyPointGrid, best_two};
 //!
 //! // A checkerboard of 16-pixel squares, slightly irregular so corners differ.
-//! let (w, h) = (160, 120);
+//! let (w, h): (usize, usize) = (160, 120);
 //! let data = (0..w * h)
 //!     .map(|i| {
 //!         let (x, y) = (i % w, i / w);
