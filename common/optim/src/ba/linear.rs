@@ -154,6 +154,52 @@ fn pose_pair_slot(a: usize, b: usize) -> usize {
     a * (a + 1) / 2 + b
 }
 
+/// `s -= y * w^T` for 6xC `y` and `w`, written as column axpys on the column-major
+/// storage so that the compiler vectorises it (the Schur loops' hot spot).
+#[inline]
+fn sub_outer<const C: usize>(
+    s: &mut Matrix6<f64>,
+    y: &nalgebra::SMatrix<f64, 6, C>,
+    w: &nalgebra::SMatrix<f64, 6, C>,
+) {
+    let s = s.as_mut_slice();
+    let (y, w) = (y.as_slice(), w.as_slice());
+    for c in 0..6 {
+        let column = &mut s[6 * c..6 * c + 6];
+        for k in 0..C {
+            let f = w[6 * k + c];
+            let y_col = &y[6 * k..6 * k + 6];
+            for r in 0..6 {
+                column[r] -= y_col[r] * f;
+            }
+        }
+    }
+}
+
+/// Damping scale of a landmark block: its diagonal plus its mean diagonal. Plain
+/// Marquardt scaling cannot damp a direction that is weak but not axis-aligned (a
+/// point's depth seen from a short baseline, a line's endpoint sliding along it): the
+/// isotropic part keeps those steps bounded, so fewer LM steps are rejected.
+#[inline]
+fn landmark_scale<const N: usize>(h: &nalgebra::SMatrix<f64, N, N>) -> nalgebra::SVector<f64, N> {
+    let mean = h.trace() / N as f64;
+    h.diagonal().add_scalar(mean)
+}
+
+/// `h + lambda * diag(scale)` with the LM diagonal clamping.
+#[inline]
+fn damped<const N: usize>(
+    h: &nalgebra::SMatrix<f64, N, N>,
+    scale: &nalgebra::SVector<f64, N>,
+    damping: &Damping,
+) -> nalgebra::SMatrix<f64, N, N> {
+    let mut a = *h;
+    for k in 0..N {
+        a[(k, k)] += damping.diagonal_term(scale[k]);
+    }
+    a
+}
+
 /// Writes a 6-vector into block `block` of `rhs`.
 fn set_rhs(rhs: &mut [f64], block: usize, value: &Vector6<f64>) {
     rhs[6 * block..6 * block + 6].copy_from_slice(value.as_slice());
@@ -333,13 +379,6 @@ impl ReducedSystem {
         damping: &Damping,
         step: &mut Step,
     ) -> Result<f64, NotPositiveDefinite> {
-        let damp6 = |h: &Matrix6<f64>| {
-            let mut a = *h;
-            for k in 0..6 {
-                a[(k, k)] += damping.diagonal_term(h[(k, k)]);
-            }
-            a
-        };
         self.slot_values.clear();
         self.slot_values.resize(self.slots.len(), Matrix6::zeros());
         self.rhs.clear();
@@ -349,7 +388,8 @@ impl ReducedSystem {
 
         for (i, &b) in self.pose_block.iter().enumerate() {
             if b != NONE {
-                self.slot_values[pose_pair_slot(b, b)] += damp6(&lin.h_pose[i]);
+                let h = &lin.h_pose[i];
+                self.slot_values[pose_pair_slot(b, b)] += damped(h, &h.diagonal(), damping);
                 set_rhs(&mut self.rhs, b, &(-lin.g_pose[i]));
             }
         }
@@ -358,11 +398,11 @@ impl ReducedSystem {
             if !self.point_used[x] {
                 continue;
             }
-            let mut a = lin.h_point[x];
-            for k in 0..3 {
-                a[(k, k)] += damping.diagonal_term(a[(k, k)]);
-            }
-            let inverse = a.cholesky().ok_or(NotPositiveDefinite)?.inverse();
+            let h = &lin.h_point[x];
+            let inverse = damped(h, &landmark_scale(h), damping)
+                .cholesky()
+                .ok_or(NotPositiveDefinite)?
+                .inverse();
             self.point_inverse[x] = inverse;
             let (start, entries) = &self.point_obs;
             let list = &entries[start[x]..start[x + 1]];
@@ -378,8 +418,11 @@ impl ReducedSystem {
             for (ya, &(_, ba)) in self.scratch_y3.iter().zip(list) {
                 for &(kb, bb) in list {
                     if ba >= bb {
-                        self.slot_values[pose_pair_slot(ba, bb)] -=
-                            ya * lin.w_point_obs[kb].transpose();
+                        sub_outer(
+                            &mut self.slot_values[pose_pair_slot(ba, bb)],
+                            ya,
+                            &lin.w_point_obs[kb],
+                        );
                     }
                 }
             }
@@ -391,11 +434,14 @@ impl ReducedSystem {
             }
             let kept = self.line_block[l];
             if kept != NONE {
-                self.slot_values[self.slot_of[&(kept, kept)]] += damp6(&lin.h_line[l]);
+                let h = &lin.h_line[l];
+                self.slot_values[self.slot_of[&(kept, kept)]] +=
+                    damped(h, &landmark_scale(h), damping);
                 set_rhs(&mut self.rhs, kept, &(-lin.g_line[l]));
                 continue;
             }
-            let inverse = damp6(&lin.h_line[l])
+            let h = &lin.h_line[l];
+            let inverse = damped(h, &landmark_scale(h), damping)
                 .cholesky()
                 .ok_or(NotPositiveDefinite)?
                 .inverse();
@@ -414,8 +460,11 @@ impl ReducedSystem {
             for (ya, &(_, ba)) in self.scratch_y6.iter().zip(list) {
                 for &(kb, bb) in list {
                     if ba >= bb {
-                        self.slot_values[pose_pair_slot(ba, bb)] -=
-                            ya * lin.w_line_obs[kb].transpose();
+                        sub_outer(
+                            &mut self.slot_values[pose_pair_slot(ba, bb)],
+                            ya,
+                            &lin.w_line_obs[kb],
+                        );
                     }
                 }
             }
@@ -494,8 +543,8 @@ impl ReducedSystem {
         step: &mut Step,
     ) -> f64 {
         let mut predicted = 0.0;
-        let mut add = |h_diag: &[f64], g: &[f64], d: &[f64]| {
-            for ((h, g), d) in h_diag.iter().zip(g).zip(d) {
+        let mut add = |scale: &[f64], g: &[f64], d: &[f64]| {
+            for ((h, g), d) in scale.iter().zip(g).zip(d) {
                 predicted += damping.diagonal_term(*h) * d * d - g * d;
             }
         };
@@ -525,7 +574,7 @@ impl ReducedSystem {
             }
             step.point[x] = self.point_inverse[x] * r;
             add(
-                lin.h_point[x].diagonal().as_slice(),
+                landmark_scale(&lin.h_point[x]).as_slice(),
                 lin.g_point[x].as_slice(),
                 step.point[x].as_slice(),
             );
@@ -548,7 +597,7 @@ impl ReducedSystem {
                 step.line[l] = self.line_inverse[l] * r;
             }
             add(
-                lin.h_line[l].diagonal().as_slice(),
+                landmark_scale(&lin.h_line[l]).as_slice(),
                 lin.g_line[l].as_slice(),
                 step.line[l].as_slice(),
             );
