@@ -14,7 +14,7 @@
 //!   slice `[T]` of a plain `#[repr(C)]` type and whose user header is [`MsgHeader`]
 //!   (frame id, capture time, per-stage monotonic stamps). [`TopicPublisher`] and
 //!   [`TopicSubscriber`] are its ends; [`TopicQos`] sizes its queues for the
-//!   [`Mode`] (lockstep / realtime).
+//!   [`Mode`] (lockstep / realtime); [`topics`] names the pipeline's topics.
 //! - Payloads: a frame is a `[u8]` in the fixed [`frame`] layout read in place as
 //!   [`gfs_core::ImageView`]s; features are `&[T]` of `ZeroCopySend + Copy` structs;
 //!   rare variable messages are bincode ([`codec`]) decoded with a size limit, and a
@@ -47,15 +47,15 @@
 //!
 //! ```
 //! use gfs_core::{ids::FrameId, Image};
-//! use gfs_ipc::{frame_view, FrameImages, IpcRun, Mode, MsgHeader, RunId, Stage, TopicKind,
-//!     TopicPublisher, TopicQos, TopicSubscriber};
+//! use gfs_ipc::{frame_view, topics, FrameImages, IpcRun, Mode, MsgHeader, RunId, Stage,
+//!     TopicPublisher, TopicSubscriber};
 //! use gfs_ipc::local;
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let run = IpcRun::new(RunId::unique("doc")?)?;
 //! let node = run.node::<local::Service>("source")?;
-//! let qos = TopicQos::new(Mode::Lockstep, TopicKind::Frame);
-//! let publisher = TopicPublisher::<local::Service, u8>::create(&run, &node, "frame", &qos, 1 << 16)?;
-//! let subscriber = TopicSubscriber::<local::Service, u8>::create(&run, &node, "frame", &qos)?;
+//! let (topic, qos) = (topics::FRAME.name, topics::FRAME.qos(Mode::Lockstep));
+//! let publisher = TopicPublisher::<local::Service, u8>::create(&run, &node, topic, &qos, 1 << 16)?;
+//! let subscriber = TopicSubscriber::<local::Service, u8>::create(&run, &node, topic, &qos)?;
 //!
 //! let (gray, depth) = (Image::<u8>::new(64, 48), Image::<f32>::new(64, 48));
 //! let mut header = MsgHeader::new(FrameId(0), 0.033);
@@ -81,6 +81,7 @@ mod messages;
 mod qos;
 mod run;
 mod topic;
+pub mod topics;
 
 pub use clock::monotonic_ns;
 pub use codec::{CodecError, MAX_VARIABLE_MESSAGE_BYTES, decode_message, encode_message};

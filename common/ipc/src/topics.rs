@@ -1,0 +1,84 @@
+//! The pipeline's topics (DESIGN.md "Data flow"): one name and kind each, shared by every
+//! stage so that publishers and subscribers meet with the same queue sizes.
+
+use crate::qos::{Mode, TopicKind, TopicQos};
+
+/// A topic of the pipeline: its name (the last part of `gfsvo/<run-id>/<name>`) and the
+/// kind that sizes its queues.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TopicSpec {
+    /// Topic name.
+    pub name: &'static str,
+    /// What it carries.
+    pub kind: TopicKind,
+}
+
+impl TopicSpec {
+    /// Queue sizes of this topic in `mode`.
+    pub fn qos(&self, mode: Mode) -> TopicQos {
+        TopicQos::new(mode, self.kind)
+    }
+}
+
+/// `source` -> everyone: gray, depth (metres) and colour of frame k ([`crate::frame`]).
+pub const FRAME: TopicSpec = TopicSpec {
+    name: "frame",
+    kind: TopicKind::Frame,
+};
+/// `points` -> `tracker`: ORB keypoints with depth of frame k.
+pub const POINTS: TopicSpec = TopicSpec {
+    name: "points",
+    kind: TopicKind::Features,
+};
+/// `lines` -> `planes`, `tracker`: 2D + 3D line segments with LBD descriptors.
+pub const LINES: TopicSpec = TopicSpec {
+    name: "lines",
+    kind: TopicKind::Features,
+};
+/// `planes` -> `tracker`: plane normals, Manhattan axes, line <-> axis association.
+pub const MANHATTAN: TopicSpec = TopicSpec {
+    name: "manhattan",
+    kind: TopicKind::Features,
+};
+/// `tracker` -> recorder, `source` (lockstep pacing): the pose and status of frame k.
+pub const POSE: TopicSpec = TopicSpec {
+    name: "pose",
+    kind: TopicKind::Features,
+};
+/// `tracker` -> `mapper`: a new keyframe (bincode).
+pub const KEYFRAME: TopicSpec = TopicSpec {
+    name: "keyframe",
+    kind: TopicKind::Variable,
+};
+/// `mapper` -> `tracker`: the bounded local-map snapshot (bincode).
+pub const LOCAL_MAP: TopicSpec = TopicSpec {
+    name: "local-map",
+    kind: TopicKind::Variable,
+};
+/// Supervisor -> stages: typed control messages such as stop or reset (bincode).
+pub const CONTROL: TopicSpec = TopicSpec {
+    name: "control",
+    kind: TopicKind::Variable,
+};
+
+/// Every topic of the pipeline.
+pub const ALL: [TopicSpec; 8] = [
+    FRAME, POINTS, LINES, MANHATTAN, POSE, KEYFRAME, LOCAL_MAP, CONTROL,
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::run::{IpcRun, RunId};
+
+    #[test]
+    fn names_are_unique_valid_service_names() {
+        let run = IpcRun::new(RunId::new("t").unwrap()).unwrap();
+        for (i, a) in ALL.iter().enumerate() {
+            assert!(run.service_name(a.name).is_ok(), "{}", a.name);
+            assert!(ALL[i + 1..].iter().all(|b| b.name != a.name), "{}", a.name);
+        }
+        assert_eq!(FRAME.qos(Mode::Realtime).subscriber_buffer, 1);
+        assert_eq!(LOCAL_MAP.qos(Mode::Lockstep).history, 2);
+    }
+}
