@@ -19,7 +19,7 @@ use gfs_core::ids::FrameId;
 use gfs_ipc::ipc;
 use gfs_ipc::{
     FrameLayout, IpcRun, Mode, MsgHeader, RunId, Stage, StageStamp, TopicKind, TopicPublisher,
-    TopicQos, TopicSubscriber, frame_view, frame_view_mut, monotonic_ns,
+    TopicQos, TopicSubscriber, frame_view, frame_view_mut, monotonic_ns, topics,
 };
 
 const CHILD_ENV: &str = "GFS_IPC_BENCH_CHILD";
@@ -73,7 +73,7 @@ fn next<T: std::fmt::Debug + gfs_ipc::ZeroCopySend + 'static>(
 }
 
 fn qos_frame() -> TopicQos {
-    TopicQos::new(Mode::Lockstep, TopicKind::Frame)
+    topics::FRAME.qos(Mode::Lockstep)
 }
 
 fn qos_ack() -> TopicQos {
@@ -89,7 +89,8 @@ fn child(spec: &str) -> Result<(), BoxError> {
     };
     let run = IpcRun::new(RunId::new(run_id)?)?;
     let node = run.node::<ipc::Service>("bench-sub")?;
-    let frames = TopicSubscriber::<ipc::Service, u8>::create(&run, &node, "frame", &qos_frame())?;
+    let frames =
+        TopicSubscriber::<ipc::Service, u8>::create(&run, &node, topics::FRAME.name, &qos_frame())?;
     let acks = TopicPublisher::<ipc::Service, u64>::create(&run, &node, "ack", &qos_ack(), 4)?;
     acks.publish_slice(&MsgHeader::new(FrameId(READY), 0.0), &[0; 4])?;
     loop {
@@ -183,7 +184,7 @@ fn measure(strategy: Wait, frames: usize, warmup: usize, f: &Fixture) -> Result<
         let publisher = TopicPublisher::<ipc::Service, u8>::create(
             &run,
             &node,
-            "frame",
+            topics::FRAME.name,
             &qos_frame(),
             layout.byte_len(),
         )?;
@@ -286,6 +287,17 @@ fn parent() -> Result<(), BoxError> {
          {frames} frames after {warmup} warm-up, one in flight, two processes over iceoryx2 ipc",
         bytes as f64 / 1e6
     );
+    // The tails depend on what else runs on the machine: say so with the numbers.
+    if let Ok(load) = std::fs::read_to_string("/proc/loadavg") {
+        println!(
+            "load average {} on {} cores",
+            load.split_whitespace()
+                .take(3)
+                .collect::<Vec<_>>()
+                .join(" "),
+            std::thread::available_parallelism().map_or(0, |n| n.get())
+        );
+    }
     for strategy in [Wait::Event, Wait::Spin] {
         let s = measure(strategy, frames, warmup, &f)?;
         println!("subscriber waits by {} (µs):", strategy.name());
