@@ -18,7 +18,7 @@ pub enum IpcError {
     /// A run id, topic or node name is not usable as an iceoryx2 name.
     #[error("invalid {what} {value:?}: {reason}")]
     InvalidName {
-        /// Which kind of name ("run id", "service name", "node name", "prefix").
+        /// Which kind of name ("run id", "service name", "node name", "prefix", "payload alignment").
         what: &'static str,
         /// The rejected value.
         value: String,

@@ -90,7 +90,9 @@ pub use frame::{FrameError, FrameImages, FrameLayout, FrameView, FrameViewMut};
 pub use header::{MsgHeader, Stage, StageStamp};
 pub use messages::{frame_view, frame_view_mut};
 pub use qos::{Mode, TopicKind, TopicQos};
-pub use run::{CleanupReport, IPC_ROOT, IpcRun, NodeInfo, RUN_ID_ENV, RunId, SHM_DIR};
+pub use run::{
+    CleanupReport, IPC_ROOT, IpcRun, MAX_RUN_ID_LEN, NodeInfo, RUN_ID_ENV, RunId, SHM_DIR,
+};
 pub use topic::{PAYLOAD_ALIGNMENT, TopicPublisher, TopicSample, TopicSampleMut, TopicSubscriber};
 
 /// The iceoryx2 names a stage needs: the service variants, the variant trait, and the

@@ -16,7 +16,7 @@ pub enum FrameError {
         /// What needed them ("header", "gray plane", ...).
         what: &'static str,
     },
-    /// The first 8 bytes are not [`FRAME_MAGIC`].
+    /// The first 8 bytes are not [`FRAME_MAGIC`](super::FRAME_MAGIC).
     #[error("frame payload has magic {found:#018x}, not a frame (or another layout version)")]
     BadMagic {
         /// The value found.
