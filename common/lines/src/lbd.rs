@@ -217,28 +217,40 @@ impl LbdExtractor {
         }
         let samples = ((len / self.config.step).floor() as usize + 1).min(self.config.max_samples);
         let spacing = len / (samples - 1).max(1) as f32;
-        for i in 0..samples {
-            let t = i as f32 * spacing;
-            // +0.5 so that truncation rounds to the nearest pixel (coordinates >= 0).
-            let (pu, pv) = (
-                segment.start[0] + t * du + 0.5,
-                segment.start[1] + t * dv + 0.5,
-            );
+        let accumulate = |row: &mut [f32; 4], xf: f32, yf: f32| {
+            if !(xf >= 0.0 && yf >= 0.0 && xf < w && yf < h) {
+                return;
+            }
+            let (x, y) = (xf as usize, yf as usize);
+            let gu = f32::from(dx_data[y * sx + x]);
+            let gv = f32::from(dy_data[y * sy + x]);
+            let perp = gu * nu + gv * nv;
+            let along = gu * du + gv * dv;
+            // Positive and negative parts (LBD's four accumulators), branch-free.
+            row[0] += perp.max(0.0);
+            row[1] += (-perp).max(0.0);
+            row[2] += along.max(0.0);
+            row[3] += (-along).max(0.0);
+        };
+        // +0.5 so that truncation rounds to the nearest pixel (coordinates >= 0).
+        let (ou, ov) = (segment.start[0] + 0.5, segment.start[1] + 0.5);
+        // Memory order: the inner loop moves along image rows where it can, so that
+        // consecutive reads share cache lines (LBD is bound by these scattered reads).
+        if du.abs() >= dv.abs() {
             for (row, &o) in self.rows.iter_mut().zip(&self.offsets) {
-                let (xf, yf) = (pu + o * nu, pv + o * nv);
-                if !(xf >= 0.0 && yf >= 0.0 && xf < w && yf < h) {
-                    continue;
+                let (bu, bv) = (ou + o * nu, ov + o * nv);
+                for i in 0..samples {
+                    let t = i as f32 * spacing;
+                    accumulate(row, bu + t * du, bv + t * dv);
                 }
-                let (x, y) = (xf as usize, yf as usize);
-                let gu = f32::from(dx_data[y * sx + x]);
-                let gv = f32::from(dy_data[y * sy + x]);
-                let perp = gu * nu + gv * nv;
-                let along = gu * du + gv * dv;
-                // Positive and negative parts (LBD's four accumulators), branch-free.
-                row[0] += perp.max(0.0);
-                row[1] += (-perp).max(0.0);
-                row[2] += along.max(0.0);
-                row[3] += (-along).max(0.0);
+            }
+        } else {
+            for i in 0..samples {
+                let t = i as f32 * spacing;
+                let (pu, pv) = (ou + t * du, ov + t * dv);
+                for (row, &o) in self.rows.iter_mut().zip(&self.offsets) {
+                    accumulate(row, pu + o * nu, pv + o * nv);
+                }
             }
         }
         // Orient by the gradient: the normal must point along the mean gradient across
