@@ -32,7 +32,8 @@ pub struct NoiseConfig {
     pub grazing_deg: f64,
     /// Range beyond which depth is missing, metres. Default 8 (Kinect v1 useful range).
     pub max_depth_m: f64,
-    /// Standard deviation of gaussian image noise, gray levels (0 = none). Default 2.
+    /// Standard deviation of (near-)gaussian image noise per channel, gray levels
+    /// (0 = none). Default 2.
     pub image_sigma: f64,
     /// Amplitude of the slow exposure gain drift, relative (0 = constant exposure).
     /// Default 0.08: the gain wanders within [0.92, 1.08] over a few seconds.
@@ -79,6 +80,10 @@ struct Blob {
 impl Blob {
     fn contains(&self, x: f64, y: f64) -> bool {
         let (dx, dy) = ((x - self.x) / self.rx, (y - self.y) / self.ry);
+        // The ragged outline stays within 1.3 radii: skip the noise outside.
+        if dx.abs() > 1.3 || dy.abs() > 1.3 {
+            return false;
+        }
         let ragged = 1.0 + 0.6 * (value_noise(self.seed, x * 0.3, y * 0.3) - 0.5);
         dx * dx + dy * dy < ragged * ragged
     }
@@ -121,7 +126,7 @@ pub(crate) fn apply(
             let c = clean.colour[base + x];
             *out = [0, 1, 2].map(|k| {
                 let noise_levels = if noise.image_sigma > 0.0 {
-                    (noise.image_sigma * pixel_rng.gaussian()) as f32
+                    (noise.image_sigma * pixel_rng.approx_gaussian()) as f32
                 } else {
                     0.0
                 };

@@ -38,7 +38,7 @@ pub enum Texture {
         /// Noise seed.
         seed: u64,
     },
-    /// Wood grain: stripes along `s`, `period` metres apart, wobbled by noise.
+    /// Wood grain: stripes along `t`, `period` metres apart across `s`, wobbled by noise.
     Wood {
         /// Light wood colour.
         light: Rgb,
@@ -182,9 +182,10 @@ impl Texture {
                 period,
                 seed,
             } => {
-                let wobble = 0.6 * fbm(*seed, s * 2.0, t * 15.0);
-                let phase = (t / period + wobble) * std::f64::consts::TAU;
-                let w = (0.5 + 0.5 * phase.sin()).powi(3) as f32;
+                // Grain runs along t (up on doors and furniture fronts), wobbling across.
+                let wobble = 1.5 * fbm(*seed, s * 3.0, t * 0.8);
+                let phase = (s / period + wobble) * std::f64::consts::TAU;
+                let w = 0.7 * ((0.5 + 0.5 * phase.sin()).powi(2) as f32);
                 (lerp_rgb(*light, *dark, w), 0)
             }
             Texture::Tiles {

@@ -1,7 +1,9 @@
 //! A 14 x 2.2 x 2.6 m corridor with doors on both sides, skirting boards, posters,
 //! ceiling lamps, a window at one end and a double door at the other.
 
-use super::parts::{door, jitter, poster, poster_texture, shell, wall_box, walls, window};
+use super::parts::{
+    door, jitter, poster, poster_texture, shell, skirting, wall_box, walls, window,
+};
 use crate::rng::SplitMix64;
 use crate::scene::{Aabb, BoxLook, Scene, SceneBuilder, SceneKind};
 use crate::texture::Texture;
@@ -61,7 +63,7 @@ pub fn build(seed: u64) -> Scene {
     let wood = b.texture(Texture::Wood {
         light: jitter(&mut rng, [0.70, 0.50, 0.30], 0.08),
         dark: [0.42, 0.26, 0.14],
-        period: 0.02,
+        period: 0.04,
         seed: rng.next_u64(),
     });
     let white = b.texture(Texture::Paint {
@@ -70,7 +72,7 @@ pub fn build(seed: u64) -> Scene {
         scale: 0.5,
         seed: rng.next_u64(),
     });
-    let skirting = b.texture(Texture::Paint {
+    let skirting_tex = b.texture(Texture::Paint {
         color: [0.3, 0.28, 0.26],
         amplitude: 0.03,
         scale: 0.2,
@@ -123,18 +125,8 @@ pub fn build(seed: u64) -> Scene {
                 metal,
             );
         }
-        let mut start = 0.0;
-        for &s in cuts.iter().chain(std::iter::once(&(length + DOOR_GAP))) {
-            wall_box(
-                &mut b,
-                wall,
-                [start, s - DOOR_GAP],
-                [0.0, 0.09],
-                0.015,
-                BoxLook::all(skirting),
-            );
-            start = s + DOOR_GAP;
-        }
+        let gaps: Vec<[f64; 2]> = cuts.iter().map(|&s| [s - DOOR_GAP, s + DOOR_GAP]).collect();
+        skirting(&mut b, wall, length, &gaps, BoxLook::all(skirting_tex));
     }
     for (wall, s) in [(&south, 4.5), (&north, 6.5), (&south, 8.5), (&north, 10.5)] {
         let (w, h) = (rng.range(0.6, 1.0), rng.range(0.6, 0.9));

@@ -112,6 +112,18 @@ pub fn wall_box(
     );
 }
 
+/// A skirting board 9 cm high and 1.5 cm deep along `wall` from `s = 0` to `length`,
+/// interrupted by the `gaps` (sorted `[s0, s1]` ranges, e.g. door frames).
+pub fn skirting(b: &mut SceneBuilder, wall: &Wall, length: f64, gaps: &[[f64; 2]], look: BoxLook) {
+    let mut start = 0.0;
+    for gap in gaps.iter().chain(std::iter::once(&[length, length])) {
+        if gap[0] > start {
+            wall_box(b, wall, [start, gap[0]], [0.0, 0.09], 0.015, look);
+        }
+        start = gap[1];
+    }
+}
+
 /// A flat panel on `wall` over `s0..s1`, `t0..t1`, standing `d` metres off it, with its
 /// outline as ground-truth edges. Returns the world corner of its texture origin.
 pub fn wall_panel(

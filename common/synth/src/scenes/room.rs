@@ -76,13 +76,13 @@ pub fn textured(seed: u64) -> Scene {
     let wood = b.texture(Texture::Wood {
         light: jitter(&mut rng, [0.72, 0.52, 0.32], 0.08),
         dark: [0.45, 0.28, 0.15],
-        period: 0.02,
+        period: 0.04,
         seed: rng.next_u64(),
     });
     let dark_wood = b.texture(Texture::Wood {
         light: [0.42, 0.27, 0.16],
         dark: [0.22, 0.13, 0.08],
-        period: 0.015,
+        period: 0.03,
         seed: rng.next_u64(),
     });
     let white = b.texture(Texture::Paint {
