@@ -431,3 +431,18 @@ impl PoseProblem<'_> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn config_reads_a_toml_table_and_rejects_unknown_fields() {
+        let c: PoseOptimizerConfig = toml::from_str("rounds = 2\nline_chi2 = 7.0").expect("valid");
+        assert_eq!(
+            (c.rounds, c.line_chi2, c.iterations_per_round),
+            (2, 7.0, 10)
+        );
+        assert!(toml::from_str::<PoseOptimizerConfig>("round = 2").is_err());
+    }
+}

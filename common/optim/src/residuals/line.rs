@@ -95,7 +95,7 @@ mod tests {
     use nalgebra::Vector6;
 
     fn random_coeffs(rng: &mut SplitMix64) -> Vector3<f64> {
-        let angle = rng.uniform(-3.14, 3.14);
+        let angle = rng.uniform(-std::f64::consts::PI, std::f64::consts::PI);
         Vector3::new(angle.cos(), angle.sin(), rng.uniform(-400.0, 400.0))
     }
 
