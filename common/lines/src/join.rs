@@ -200,6 +200,8 @@ fn extend(s: &mut Segment, field: &GradientField<'_>, max_gap: usize, cos_tolera
 
 /// How far (px) [`refine_endpoints`] looks on each side of an endpoint.
 const REFINE_REACH: f32 = 3.0;
+/// Samples of the reference level of [`refine_endpoints`].
+const REFINE_SAMPLES: usize = 24;
 /// Sampling step (px) of [`refine_endpoints`].
 const REFINE_STEP: f32 = 0.5;
 
@@ -217,10 +219,13 @@ fn refine_endpoints(s: &mut Segment, field: &GradientField<'_>) {
     let [a, b, _] = s.line_coefficients();
     let normal = [a, b];
     let dir = [(s.end[0] - s.start[0]) / len, (s.end[1] - s.start[1]) / len];
-    let samples = len as usize;
+    // The reference level: mean cross-gradient at up to REFINE_SAMPLES evenly spaced
+    // pixels (a mean needs no more, and long lines would otherwise cost a pass each).
+    let samples = (len as usize).min(REFINE_SAMPLES);
+    let spacing = len / samples as f32;
     let mut sum = 0.0;
     for i in 0..samples {
-        let t = i as f32 + 0.5;
+        let t = (i as f32 + 0.5) * spacing;
         if let Some((x, y)) = field.pixel(s.start[0] + t * dir[0], s.start[1] + t * dir[1]) {
             sum +=
                 f32::from(field.gx.at(x, y)) * normal[0] + f32::from(field.gy.at(x, y)) * normal[1];
