@@ -359,6 +359,10 @@ impl PoseProblem<'_> {
     ) -> (Isometry3<f64>, usize, bool) {
         let mut damping = Damping::new();
         let mut normal = self.linearize(&pose, result, robust);
+        // An exact fit: nothing to reduce.
+        if normal.cost <= 0.0 {
+            return (pose, 0, true);
+        }
         for iteration in 1..=max_iterations {
             let mut step = None;
             loop {

@@ -175,3 +175,51 @@ fn invalid_problems_are_errors() {
         .expect("valid");
     assert!(result.final_cost < result.initial_cost);
 }
+
+#[test]
+fn edge_cases_do_not_fail() {
+    let mut adjuster = LocalBundleAdjuster::new();
+    let mut result = BaResult::default();
+    // Empty problem.
+    let mut empty = gfs_optim::BaProblem::new(common::camera());
+    adjuster
+        .optimize(&mut empty, &BaConfig::default(), &mut result)
+        .expect("empty is valid");
+    assert_eq!(result.iterations, 0);
+    // A pair listed twice, a line paired with itself, a line with no observation but
+    // structural terms, and a point with no observation.
+    let mut scene = BaScene::new(
+        &BaSceneSpec {
+            points: 40,
+            lines: 9,
+            ..spec()
+        },
+        &mut Rng::new(5),
+    );
+    let p = &mut scene.problem;
+    p.parallel.push(p.parallel[0]);
+    p.perpendicular.push((4, 4));
+    p.lines.push([
+        nalgebra::Vector3::new(0.0, 0.0, 3.0),
+        nalgebra::Vector3::new(0.1, 0.5, 3.0),
+    ]);
+    let lonely = p.lines.len() - 1;
+    p.parallel.push((lonely, 1));
+    p.points.push(nalgebra::Vector3::new(0.0, 0.0, 2.0));
+    adjuster
+        .optimize(&mut scene.problem, &BaConfig::default(), &mut result)
+        .expect("valid");
+    assert!(
+        !result.inliers.perpendicular[scene.problem.perpendicular.len() - 1],
+        "self pair"
+    );
+    assert!(result.final_cost < result.initial_cost);
+    // The unobserved line is pulled towards its partner's direction (axis y).
+    let l = scene.problem.lines[lonely];
+    let angle = common::direction_error_deg(&l, &common::AXES[1]);
+    assert!(angle < 1.0, "{angle} deg");
+    assert_eq!(
+        scene.problem.points[40],
+        nalgebra::Vector3::new(0.0, 0.0, 2.0)
+    );
+}

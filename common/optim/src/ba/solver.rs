@@ -120,6 +120,10 @@ impl LocalBundleAdjuster {
         self.system.analyse(terms, flags)?;
         let mut damping = Damping::new();
         terms.linearize(&self.values, flags, &mut self.linearization);
+        // Nothing to reduce (no active term, or an exact fit).
+        if self.linearization.cost <= 0.0 {
+            return Ok((0, true));
+        }
         for iteration in 1..=max_iterations {
             let mut accepted = None;
             loop {
