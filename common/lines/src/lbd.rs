@@ -77,8 +77,9 @@ pub struct LbdConfig {
     /// OpenCV).
     pub step: f32,
     /// Most samples along one segment; longer segments are sampled evenly with a
-    /// larger step. Default 64: the band statistics are means along the line, so a
-    /// long line needs no more samples, and the cost per line stays bounded.
+    /// larger step. Default 32: the band statistics are means along the line, so a
+    /// long line needs no more samples, and the cost per line stays bounded (the warp
+    /// matching tests give the same scores with 32 as with 64 or every pixel).
     pub max_samples: usize,
 }
 
@@ -87,7 +88,7 @@ impl Default for LbdConfig {
         Self {
             band_width: 7,
             step: 1.0,
-            max_samples: 64,
+            max_samples: 32,
         }
     }
 }
