@@ -71,12 +71,20 @@ fn bench_pose() {
     );
 }
 
-fn bench_ba(keyframes: usize, points: usize, lines: usize, partners: usize, runs: u64) {
+fn bench_ba(
+    keyframes: usize,
+    points: usize,
+    lines: usize,
+    partners: usize,
+    track_window: usize,
+    runs: u64,
+) {
     let spec = BaSceneSpec {
         keyframes,
         points,
         lines,
         fixed: 2,
+        track_window,
         partners,
         outlier_ratio: 0.02,
         depth_range: 3.2,
@@ -85,6 +93,11 @@ fn bench_ba(keyframes: usize, points: usize, lines: usize, partners: usize, runs
     let mut result = BaResult::default();
     let mut times = Vec::new();
     let mut summary = String::new();
+    let track = if track_window == 0 {
+        "all keyframes".to_string()
+    } else {
+        format!("<= {track_window} keyframes")
+    };
     for seed in 0..runs {
         let mut scene = BaScene::new(&spec, &mut Rng::new(seed));
         let start = cpu_ns();
@@ -111,19 +124,21 @@ fn bench_ba(keyframes: usize, points: usize, lines: usize, partners: usize, runs
     }
     println!(
         "local BA, {keyframes} keyframes / {points} points / {lines} lines, {partners} parallel + \
-         {partners} perpendicular partners per line: median {:.1} ms CPU over {runs} runs ({summary})",
+         {partners} perpendicular partners per line, tracks {track}: median {:.1} ms CPU over {runs} runs ({summary})",
         median_ms(times)
     );
 }
 
 fn main() {
     if let Some(partners) = std::env::args().nth(1).and_then(|a| a.parse().ok()) {
-        bench_ba(10, 1500, 200, partners, 5);
+        bench_ba(10, 1500, 200, partners, 0, 5);
         return;
     }
     bench_pose();
-    bench_ba(10, 1500, 200, 0, 5);
-    bench_ba(10, 1500, 200, 2, 5);
-    bench_ba(10, 1500, 200, 6, 5);
-    bench_ba(20, 3000, 300, 2, 3);
+    bench_ba(10, 1500, 200, 0, 0, 5);
+    bench_ba(10, 1500, 200, 2, 0, 5);
+    bench_ba(10, 1500, 200, 6, 0, 5);
+    bench_ba(10, 1500, 200, 0, 4, 5);
+    bench_ba(10, 1500, 200, 2, 4, 5);
+    bench_ba(20, 3000, 300, 2, 4, 3);
 }

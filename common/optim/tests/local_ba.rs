@@ -12,6 +12,7 @@ fn spec() -> BaSceneSpec {
         points: 300,
         lines: 60,
         fixed: 2,
+        track_window: 0,
         partners: 2,
         outlier_ratio: 0.0,
         depth_range: 3.2,

@@ -156,6 +156,9 @@ pub struct BaSceneSpec {
     pub lines: usize,
     /// Leading keyframes held fixed (2 fix the scale, which 2D errors leave free).
     pub fixed: usize,
+    /// Each point is observed only by the keyframes of a random window of this many
+    /// consecutive keyframes (its track length); 0 = by every keyframe that sees it.
+    pub track_window: usize,
     /// Parallel and perpendicular partners per line (each).
     pub partners: usize,
     /// Fraction of point observations replaced by a random pixel.
@@ -172,7 +175,7 @@ impl BaScene {
         let true_poses: Vec<Isometry3<f64>> = (0..spec.keyframes)
             .map(|k| {
                 let s = k as f64 - 0.5 * (spec.keyframes as f64 - 1.0);
-                let centre = Vector3::new(0.1 * s, 0.03 * (k as f64).sin(), 0.02 * s);
+                let centre = Vector3::new(0.15 * s, 0.03 * (k as f64).sin(), 0.02 * s);
                 let rotation = nalgebra::UnitQuaternion::from_scaled_axis(Vector3::new(
                     0.01 * s,
                     -0.03 * s,
@@ -187,15 +190,29 @@ impl BaScene {
                 .filter(|t| project(&camera, t, p).is_some())
                 .count()
         };
+        let n = spec.keyframes;
+        let window = if spec.track_window == 0 {
+            n
+        } else {
+            spec.track_window.min(n)
+        };
+        let tracked = |p: &Vector3<f64>, first: usize| {
+            (first..first + window)
+                .filter(|&k| project(&camera, &true_poses[k], p).is_some())
+                .count()
+        };
         let mut true_points = Vec::new();
+        let mut track_start = Vec::new();
         while true_points.len() < spec.points {
             let p = Vector3::new(
                 rng.uniform(-1.8, 1.8),
                 rng.uniform(-1.3, 1.3),
                 rng.uniform(1.5, 5.0),
             );
-            if seen_by(&p) >= 2 {
+            let first = (rng.next_u64() % (n - window + 1) as u64) as usize;
+            if tracked(&p, first) >= 2 {
                 true_points.push(p);
+                track_start.push(first);
             }
         }
         let mut true_lines = Vec::new();
@@ -228,6 +245,9 @@ impl BaScene {
         }
         for (i, p) in true_points.iter().enumerate() {
             for (k, t) in true_poses.iter().enumerate() {
+                if k < track_start[i] || k >= track_start[i] + window {
+                    continue;
+                }
                 let Some(uv) = project(&camera, t, p) else {
                     continue;
                 };
