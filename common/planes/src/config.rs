@@ -159,6 +159,17 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_toml_table_sets_some_fields_and_rejects_unknown_ones() {
+        let c: PlaneConfig = toml::from_str("stride = 2\nregion_angle_deg = 10.0\n").unwrap();
+        assert_eq!((c.stride, c.region_angle_deg), (2, 10.0));
+        assert_eq!(c.min_plane_pixels, PlaneConfig::default().min_plane_pixels);
+        let e = toml::from_str::<PlaneConfig>("strid = 2\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("strid"), "{e}");
+    }
+
+    #[test]
     fn defaults_are_valid_and_bad_fields_are_named() {
         assert!(PlaneConfig::default().validate().is_ok());
         let bad = PlaneConfig {

@@ -35,7 +35,9 @@ pub struct ExtractTimings {
 }
 
 /// Grid label of a node no region has taken yet.
-const UNVISITED: u32 = u32::MAX;
+const UNVISITED: u32 = u32::MAX - 1;
+/// Grid label of a node without a normal during region growing.
+const NO_NORMAL: u32 = u32::MAX;
 /// Grid label of a node outside every output plane, in [`PlaneExtractor::labels`].
 pub const NO_PLANE: u32 = u32::MAX;
 
@@ -130,11 +132,16 @@ impl PlaneExtractor {
         let w = self.normals.grid_width();
         let normals = self.normals.normals();
         let points = self.normals.points();
+        // Nodes without a normal start out taken, so one label test rejects both.
         self.labels.clear();
-        self.labels.resize(normals.len(), UNVISITED);
+        self.labels.extend(
+            normals
+                .iter()
+                .map(|&n| if has_normal(n) { UNVISITED } else { NO_NORMAL }),
+        );
         self.regions.clear();
         for seed in 0..normals.len() {
-            if self.labels[seed] != UNVISITED || !has_normal(normals[seed]) {
+            if self.labels[seed] != UNVISITED {
                 continue;
             }
             let id = self.regions.len() as u32;
@@ -160,7 +167,6 @@ impl PlaneExtractor {
                 for q in [c - 1, c + 1, c - w, c + w] {
                     let nq = normals[q];
                     if self.labels[q] != UNVISITED
-                        || !has_normal(nq)
                         || dot(nq, nc) < self.cos_neighbour
                         || dot(nq, s) < region_limit
                     {
@@ -254,9 +260,10 @@ impl PlaneExtractor {
         }
         let regions = &self.regions;
         for label in &mut self.labels {
-            if *label != UNVISITED {
-                *label = regions[*label as usize].plane;
-            }
+            *label = match *label {
+                UNVISITED | NO_NORMAL => NO_PLANE,
+                region => regions[region as usize].plane,
+            };
         }
     }
 
