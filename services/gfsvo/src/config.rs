@@ -17,6 +17,9 @@ pub struct Config {
     /// `[depth]`: depth scale and valid range.
     #[serde(default)]
     pub depth: DepthConfig,
+    /// `[planes]`: pixel normals, BFS plane extraction, Manhattan axes.
+    #[serde(default)]
+    pub planes: gfs_planes::PlaneConfig,
     /// `[lines]`: line detection, homogenisation, LBD and 3D lines.
     #[serde(default)]
     pub lines: gfs_lines::LineConfig,
