@@ -21,7 +21,7 @@
 use gfs_core::ImageView;
 use serde::{Deserialize, Serialize};
 
-use crate::detect::Moments;
+use crate::detect::{DetectConfigError, Moments, check, clamped};
 use crate::{DetectedLine, Segment};
 
 /// The `[lines.detect.join]` table: extension and merging of detected segments.
@@ -52,6 +52,51 @@ impl Default for JoinConfig {
             merge_offset: 1.5,
             merge_gap: 10.0,
         }
+    }
+}
+
+impl JoinConfig {
+    /// Checks every value against its range.
+    ///
+    /// # Errors
+    /// [`DetectConfigError::OutOfRange`] naming the first field out of range.
+    pub fn validate(&self) -> Result<(), DetectConfigError> {
+        check(
+            "join.aligned_angle_deg",
+            self.aligned_angle_deg.into(),
+            0.0,
+            90.0,
+            "in (0, 90] degrees",
+        )?;
+        check(
+            "join.merge_angle_deg",
+            self.merge_angle_deg.into(),
+            0.0,
+            90.0,
+            "in (0, 90] degrees",
+        )?;
+        check(
+            "join.merge_offset",
+            self.merge_offset.into(),
+            0.0,
+            100.0,
+            "in (0, 100] px",
+        )?;
+        check(
+            "join.merge_gap",
+            self.merge_gap.into(),
+            0.0,
+            1000.0,
+            "in (0, 1000] px",
+        )?;
+        let gap = self.extension_gap as f64;
+        check(
+            "join.extension_gap",
+            gap + 1.0,
+            0.0,
+            1001.0,
+            "at most 1000 px",
+        )
     }
 }
 
@@ -150,7 +195,9 @@ pub(crate) fn join_lines(
     lines: &mut Vec<DetectedLine>,
     scratch: &mut JoinScratch,
 ) {
-    let cos_tolerance = config.aligned_angle_deg.clamp(0.0, 90.0).to_radians().cos();
+    let cos_tolerance = clamped(config.aligned_angle_deg, 0.0, 90.0)
+        .to_radians()
+        .cos();
     for line in lines.iter_mut() {
         extend(
             &mut line.segment,
@@ -301,7 +348,9 @@ fn merge(config: &JoinConfig, lines: &mut Vec<DetectedLine>, scratch: &mut JoinS
     alive.resize(lines.len(), true);
     geometry.clear();
     geometry.extend(lines.iter().map(|l| Geometry::of(&l.segment)));
-    let cos_angle = config.merge_angle_deg.clamp(0.0, 90.0).to_radians().cos();
+    let cos_angle = clamped(config.merge_angle_deg, 0.0, 90.0)
+        .to_radians()
+        .cos();
     for i in 0..lines.len() {
         if !alive[i] || geometry[i].len <= f32::EPSILON {
             continue;

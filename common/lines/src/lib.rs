@@ -22,6 +22,6 @@ pub use lines3d::Line3;
 #[cfg(test)]
 mod fixtures;
 pub use {
-    detect::{DetectConfig, LineDetector},
+    detect::{DetectConfig, DetectConfigError, LineDetector},
     join::JoinConfig,
 };

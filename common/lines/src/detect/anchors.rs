@@ -86,8 +86,8 @@ pub(crate) fn find_anchors(
                 push(8 * k + byte as usize);
             }
         }
-        for i in tail_start..n {
-            if row_flags[i] != 0 {
+        for (i, &f) in row_flags.iter().enumerate().skip(tail_start) {
+            if f != 0 {
                 push(i);
             }
         }

@@ -49,6 +49,8 @@ pub struct LineDetector {
 
 impl LineDetector {
     /// A detector with the given parameters; buffers are allocated on the first frame.
+    /// Out-of-range values (see [`DetectConfig::validate`]) never panic: they are
+    /// clamped to the nearest usable value when used.
     pub fn new(config: DetectConfig) -> Self {
         Self {
             config,
@@ -84,7 +86,7 @@ impl LineDetector {
         if w < 3 || h < 3 {
             return;
         }
-        let tolerance = f64::from(cfg.aligned_angle_deg.clamp(0.1, 90.0)).to_radians();
+        let tolerance = f64::from(super::clamped(cfg.aligned_angle_deg, 0.1, 90.0)).to_radians();
         self.nfa
             .prepare(w, h, tolerance / std::f64::consts::PI, cfg.max_nfa);
         let min_length = self.nfa.min_length();

@@ -25,7 +25,8 @@ mod gradient;
 mod nfa;
 mod smooth;
 
-pub use config::DetectConfig;
+pub use config::{DetectConfig, DetectConfigError};
+pub(crate) use config::{check, clamped};
 pub use detector::LineDetector;
 pub(crate) use fit::Moments;
 
