@@ -202,7 +202,9 @@ impl Scene {
             .collect()
     }
 
-    /// Straight 3D edges: box edges, room corners, panel and frame outlines.
+    /// Straight 3D edges: box edges, room corners, panel and frame outlines, poster
+    /// blocks. Some are hidden from a given view (behind furniture, inside a cabinet):
+    /// check visibility against the rendered depth before expecting them in an image.
     pub fn edges(&self) -> &[SceneEdge] {
         &self.edges
     }

@@ -340,8 +340,15 @@ fn glyph_ink(rect: &[f64; 4], line: f64, seed: u64, s: f64, t: f64) -> bool {
     let x = (s - rect[0] - ci * cell_w) / cell_w;
     let h = hash(seed, &[li as u64, ci as u64]);
     let line_len = 6 + hash(seed, &[li as u64]) % 30;
-    if !(0.0..1.0).contains(&y) || x >= 0.75 || ci as u64 >= line_len || h.is_multiple_of(7) {
-        return false; // leading, letter gap, end of line, or a word space
+    // Only whole glyphs: the line and the character must fit inside the rectangle.
+    let fits = (li + 0.7) * line <= rect[3] - rect[1] && (ci + 0.75) * cell_w <= rect[2] - rect[0];
+    if !fits
+        || !(0.0..1.0).contains(&y)
+        || x >= 0.75
+        || ci as u64 >= line_len
+        || h.is_multiple_of(7)
+    {
+        return false; // cut glyph, leading, letter gap, end of line, or a word space
     }
     let (gx, gy) = ((x / 0.25) as u32, (y * 5.0) as u32);
     let glyph = GLYPHS[(h >> 8) as usize % GLYPHS.len()];

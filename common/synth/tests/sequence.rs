@@ -271,3 +271,35 @@ fn holes_cover_blobs_grazing_angles_and_far_range_only() {
         "{missing} missing of {n}, {far} far"
     );
 }
+
+#[test]
+fn a_config_reads_from_a_toml_table_with_defaults_for_missing_fields() {
+    let config: SynthConfig = toml::from_str(
+        "scene = 'low-texture'\ntrajectory = 'rotation'\nframes = 12\n[noise]\nimage_sigma = 0.5\n",
+    )
+    .unwrap();
+    assert_eq!(config.scene, SceneKind::LowTexture);
+    assert_eq!(config.trajectory, TrajectoryKind::Rotation);
+    assert_eq!((config.frames, config.seed), (12, 1));
+    assert_eq!(config.noise.image_sigma, 0.5);
+    assert!(config.noise.depth_noise);
+    assert_eq!(config.camera, SynthConfig::default_camera());
+    assert!(toml::from_str::<SynthConfig>("scenery = 'room'").is_err());
+}
+
+#[test]
+fn degenerate_cameras_render_without_panicking() {
+    for camera in [
+        gfs_core::camera::PinholeCamera::new(10.0, 10.0, 0.0, 0.0, 0, 0),
+        gfs_core::camera::PinholeCamera::new(10.0, 10.0, 0.0, 0.0, 1, 1),
+        gfs_core::camera::PinholeCamera::new(0.0, 0.0, 0.0, 0.0, 4, 3),
+    ] {
+        let f = SynthSequence::new(SynthConfig {
+            frames: 1,
+            camera,
+            ..SynthConfig::default()
+        })
+        .render(0);
+        assert_eq!(f.rgb.width() * f.rgb.height(), camera.width * camera.height);
+    }
+}

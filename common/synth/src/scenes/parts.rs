@@ -283,10 +283,10 @@ pub fn poster_texture(rng: &mut SplitMix64, w: f64, h: f64) -> Texture {
     let mut items = Vec::new();
     // Columns of content from the top: a headline, blocks side by side, body text.
     let margin = 0.06 * w.min(h);
-    let headline = 0.18 * h;
+    let headline = (0.18 * h).min(0.14);
     items.push(PosterItem::Text {
         rect: [margin, h - margin - headline, w - margin, h - margin],
-        line: headline.min(0.14),
+        line: headline,
         ink,
         seed: rng.next_u64(),
     });
