@@ -2,6 +2,7 @@
 
 mod config;
 mod linear;
+mod normal;
 mod problem;
 mod solver;
 mod terms;

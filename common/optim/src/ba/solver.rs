@@ -4,7 +4,8 @@
 //! inliers; the Huber kernel stays on in both).
 
 use super::config::BaConfig;
-use super::linear::{Linearization, ReducedSystem, Step};
+use super::linear::ReducedSystem;
+use super::normal::{Linearization, Step};
 use super::problem::{BaError, BaProblem};
 use super::terms::{BaFlags, Terms, Values};
 use crate::lm::Damping;

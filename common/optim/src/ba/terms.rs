@@ -3,7 +3,7 @@
 //! equations' blocks.
 
 use super::config::BaConfig;
-use super::linear::Linearization;
+use super::normal::Linearization;
 use super::problem::BaProblem;
 use crate::residuals::{
     LineReprojection, ManhattanAxis, ParallelLines, PerpendicularLines, PointReprojection,
