@@ -85,7 +85,7 @@ pub struct SynthFrame {
     pub pose: Isometry3<f64>,
     /// Colour image.
     pub rgb: RgbImage,
-    /// Gray image (BT.601 luma of `rgb`, integer weights 77/150/29 over 256).
+    /// Gray image (BT.601 luma of `rgb`, see [`luma`]).
     pub gray: GrayImage,
     /// Depth in metres, 0 = missing.
     pub depth: DepthImage,
@@ -233,8 +233,10 @@ impl SynthSequence {
     }
 }
 
-/// BT.601 luma with integer weights (77, 150, 29) / 256, rounded.
+/// BT.601 luma, weights (0.299, 0.587, 0.114), rounded: the same integer formula as
+/// `gfs_dataset::gray_bt601`, so the gray of a rendered frame equals the gray of the
+/// same frame read back from its PNG.
 #[inline]
 pub fn luma(c: [u8; 3]) -> u8 {
-    ((77 * u32::from(c[0]) + 150 * u32::from(c[1]) + 29 * u32::from(c[2]) + 128) >> 8) as u8
+    ((299 * u32::from(c[0]) + 587 * u32::from(c[1]) + 114 * u32::from(c[2]) + 500) / 1000) as u8
 }

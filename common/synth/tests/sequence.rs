@@ -303,3 +303,15 @@ fn degenerate_cameras_render_without_panicking() {
         assert_eq!(f.rgb.width() * f.rgb.height(), camera.width * camera.height);
     }
 }
+
+#[test]
+fn gray_is_rounded_bt601_luma_of_the_colour() {
+    assert_eq!(gfs_synth::luma([255, 255, 255]), 255);
+    assert_eq!(gfs_synth::luma([255, 0, 0]), 76);
+    assert_eq!(gfs_synth::luma([0, 255, 0]), 150);
+    assert_eq!(gfs_synth::luma([0, 0, 255]), 29);
+    let f = SynthSequence::new(small(1, NoiseConfig::default())).render(0);
+    for (g, c) in f.gray.as_slice().iter().zip(f.rgb.as_slice()) {
+        assert_eq!(*g, gfs_synth::luma(*c));
+    }
+}
