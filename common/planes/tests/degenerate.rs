@@ -149,3 +149,41 @@ fn a_gap_without_ma_keeps_the_labels() {
     let label_after = true_axes(&after).transpose() * second.rotation.matrix();
     assert!((label - label_after).amax() < 0.02, "{label} {label_after}");
 }
+
+/// A wall at 3 m cut in two by a pillar at 1.5 m: the two halves merge into one plane
+/// (same normal and offset), the pillar stays its own; without merging there are three.
+#[test]
+fn a_wall_split_by_an_occluder_merges_into_one_plane() {
+    let cam = fr1_camera();
+    let mut depth = Image::new(640, 480);
+    for v in 0..480 {
+        for u in 0..640 {
+            depth.set(u, v, if (280..360).contains(&u) { 1.5 } else { 3.0 });
+        }
+    }
+    let mut planes = Vec::new();
+    for (merge_angle_deg, expected) in [(5.0, 2), (0.0, 3)] {
+        let config = PlaneConfig {
+            merge_angle_deg,
+            ..PlaneConfig::default()
+        };
+        let mut extractor = PlaneExtractor::new(&config).unwrap();
+        extractor.extract(&depth.view(), &cam, &mut planes).unwrap();
+        assert_eq!(planes.len(), expected, "merge {merge_angle_deg}");
+        for p in &planes {
+            assert!(p.normal[2] < -0.9999, "{p:?}");
+        }
+    }
+    // Merged: the wall (both halves, ~72 % of the image) first, then the pillar.
+    let config = PlaneConfig::default();
+    let mut extractor = PlaneExtractor::new(&config).unwrap();
+    extractor.extract(&depth.view(), &cam, &mut planes).unwrap();
+    assert!((planes[0].offset - 3.0).abs() < 1e-3 && (planes[1].offset - 1.5).abs() < 1e-3);
+    assert!(planes[0].pixels > 200_000, "{}", planes[0].pixels);
+    let labels = extractor.labels();
+    let (w, _) = extractor.grid_size();
+    // A node left of the pillar and one right of it carry the same plane index.
+    assert_eq!(labels[60 * w + 20], 0);
+    assert_eq!(labels[60 * w + 140], 0);
+    assert_eq!(labels[60 * w + 80], 1);
+}
