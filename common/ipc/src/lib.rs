@@ -41,6 +41,10 @@
 //!   bytes of a Unix socket path: run ids are short and the root stays `/tmp/iceoryx2/`.
 //! - Each prefix ("domain") has a node-counter segment `…global_mgmt` in `/dev/shm` that
 //!   no node removes; [`IpcRun::finish`] removes it when the run is over.
+//! - Samples a subscriber has not yet connected to (it connects on `receive`) vanish
+//!   when their publisher is dropped: a publisher that exits right after sending loses
+//!   them. Once connected, the subscriber keeps a dead publisher's queued samples.
+//! - Ports are not `Send`: in `threads` mode each thread creates its own node and ports.
 //! - A SIGKILLed process's node, ports, connections and data segments stay until some
 //!   process calls [`IpcRun::cleanup_dead_nodes`] (new nodes and opened services also
 //!   clean up dead nodes by default); its samples then return to the publishers.

@@ -334,3 +334,50 @@ fn runs_do_not_see_each_other() {
     assert_no_leftovers(&a);
     assert_no_leftovers(&b);
 }
+
+#[test]
+fn local_services_connect_threads_of_one_process() {
+    // `threads` mode: each stage thread owns its node and ports (ports are not `Send`).
+    // The publishing thread stays alive until its messages are read: samples a subscriber
+    // has not connected to yet vanish with their publisher.
+    let run = IpcRun::new(RunId::unique("threads").unwrap()).unwrap();
+    {
+        let qos = TopicQos::new(Mode::Lockstep, TopicKind::Features);
+        let node = run.node::<local::Service>("tracker").unwrap();
+        let poses =
+            TopicSubscriber::<local::Service, f64>::create(&run, &node, "pose", &qos).unwrap();
+        let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
+        let stage = {
+            let run = run.clone();
+            std::thread::spawn(move || {
+                let node = run.node::<local::Service>("source").unwrap();
+                let publisher =
+                    TopicPublisher::<local::Service, f64>::create(&run, &node, "pose", &qos, 7)
+                        .unwrap();
+                for k in 0..3u32 {
+                    let pose = [f64::from(k), 0.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+                    publisher
+                        .publish_slice(&stamped_header(u64::from(k)), &pose)
+                        .unwrap();
+                }
+                // Bounded: the main thread answers at once or has failed.
+                let _ = done_rx.recv_timeout(Duration::from_secs(30));
+            })
+        };
+        let mut got = Vec::new();
+        while got.len() < 3 {
+            // Bounded: a lost message fails the test instead of hanging it.
+            assert!(
+                poses.wait(Duration::from_secs(10)).unwrap(),
+                "no pose after 10 s"
+            );
+            while let Some(s) = poses.receive().unwrap() {
+                got.push((s.user_header().frame_id, s.payload()[0]));
+            }
+        }
+        done_tx.send(()).unwrap();
+        stage.join().unwrap();
+        assert_eq!(got, vec![(0, 0.0), (1, 1.0), (2, 2.0)]);
+    }
+    assert_no_leftovers(&run);
+}
