@@ -42,6 +42,17 @@ fn recovers_poses_and_structure_makes_lines_straighter() {
         let (dir0, pts0) = (with.mean_line_direction_error(), with.point_rms());
         let result = run(&mut with, &BaConfig::default());
         let plain = run(&mut without, &no_structure);
+        // Parallel / perpendicular pairs alone (no Manhattan axes).
+        let mut pairs_only = BaScene::new(&spec(), &mut Rng::new(seed));
+        run(
+            &mut pairs_only,
+            &BaConfig {
+                manhattan_weight: 0.0,
+                ..BaConfig::default()
+            },
+        );
+        let dir3 = pairs_only.mean_line_direction_error();
+        println!("seed {seed}: line direction error with pairs only {dir3:.3} deg");
         let (t1, r1) = with.max_pose_error();
         let (t2, r2) = without.max_pose_error();
         let (dir1, dir2) = (
@@ -77,6 +88,7 @@ fn recovers_poses_and_structure_makes_lines_straighter() {
         assert!(t1 < 0.3 * t0, "poses improve: {t0} -> {t1} m");
         assert!(dir1 < 0.05, "structural + Manhattan: {dir1} deg");
         assert!(dir1 < 0.3 * dir2, "structure helps: {dir1} vs {dir2} deg");
+        assert!(dir3 < 0.5 * dir2, "pairs alone help: {dir3} vs {dir2} deg");
         let rejected = plain
             .inliers
             .point_observations
