@@ -7,6 +7,7 @@ use crate::grid::{GridConfig, LineGrid};
 use crate::homogenise::{HomogeniseConfig, Homogeniser};
 use crate::lbd::{LbdConfig, LbdDescriptor, LbdExtractor};
 use crate::lines3d::{Line3, Line3Estimator, Lines3dConfig};
+use crate::matching::LineSet;
 use gfs_core::ImageView;
 use gfs_core::camera::PinholeCamera;
 use serde::Deserialize;
@@ -49,6 +50,14 @@ impl LineFeatures {
     /// True when there is no line.
     pub fn is_empty(&self) -> bool {
         self.lines.is_empty()
+    }
+
+    /// The lines and descriptors as the matcher's input.
+    pub fn as_set(&self) -> LineSet<'_> {
+        LineSet {
+            lines: &self.lines,
+            descriptors: &self.descriptors,
+        }
     }
 
     /// Empties every array, keeping the storage.
@@ -232,7 +241,7 @@ mod tests {
     use super::*;
     use crate::Segment;
     use crate::fixtures::{H, Rng, Scene, W, Warp, render};
-    use crate::matching::{LineMatchConfig, LineMatcher, LineSet};
+    use crate::matching::{LineMatchConfig, LineMatcher};
     use gfs_core::Image;
 
     fn camera() -> PinholeCamera {
@@ -300,18 +309,7 @@ mod tests {
         let (s1, s2) = (segments(&f1), segments(&f2));
         let mut matcher = LineMatcher::new(LineMatchConfig::default());
         let mut matches = Vec::new();
-        matcher.match_lines(
-            LineSet {
-                segments: &s1,
-                descriptors: &f1.descriptors,
-            },
-            LineSet {
-                segments: &s2,
-                descriptors: &f2.descriptors,
-            },
-            None,
-            &mut matches,
-        );
+        matcher.match_lines(f1.as_set(), f2.as_set(), None, &mut matches);
         let correct = matches
             .iter()
             .filter(|m| {

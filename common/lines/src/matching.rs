@@ -2,8 +2,8 @@
 //! angle and length-ratio gates, optional per-query candidate lists (the tracker's grid
 //! candidates, section III-C "Grid-based Tracking") and a mutual check.
 
-use crate::Segment;
 use crate::lbd::{LbdDescriptor, hamming};
+use crate::{DetectedLine, Segment};
 use serde::Deserialize;
 
 /// Parameters of the matcher.
@@ -48,11 +48,12 @@ pub struct LineMatch {
     pub distance: u32,
 }
 
-/// Borrowed lines of one frame: segments and descriptors, index-aligned.
+/// Borrowed lines of one frame: lines and descriptors, index-aligned (see
+/// [`crate::LineFeatures::as_set`]).
 #[derive(Clone, Copy, Debug)]
 pub struct LineSet<'a> {
     /// Segments, pixels.
-    pub segments: &'a [Segment],
+    pub lines: &'a [DetectedLine],
     /// One descriptor per segment.
     pub descriptors: &'a [LbdDescriptor],
 }
@@ -143,8 +144,8 @@ impl LineMatcher {
             forward,
             every,
         } = self;
-        let nq = query.segments.len().min(query.descriptors.len());
-        let nt = train.segments.len().min(train.descriptors.len());
+        let nq = query.lines.len().min(query.descriptors.len());
+        let nt = train.lines.len().min(train.descriptors.len());
         reverse.clear();
         reverse.resize(nt, (u32::MAX, u32::MAX));
         forward.clear();
@@ -156,7 +157,7 @@ impl LineMatcher {
         let cos_max = config.max_angle_deg.to_radians().cos();
         for (q, slot) in forward.iter_mut().enumerate() {
             let list = candidates.map_or(every.as_slice(), |c| c.of(q));
-            let (qs, qd) = (&query.segments[q], &query.descriptors[q]);
+            let (qs, qd) = (&query.lines[q].segment, &query.descriptors[q]);
             let (qdir, qlen) = direction(qs);
             let (mut best, mut second, mut best_t) = (u32::MAX, u32::MAX, u32::MAX);
             for &t in list {
@@ -164,7 +165,7 @@ impl LineMatcher {
                 if ti >= nt {
                     continue;
                 }
-                let (tdir, tlen) = direction(&train.segments[ti]);
+                let (tdir, tlen) = direction(&train.lines[ti].segment);
                 // Undirected lines: |cos| of the angle between them.
                 let cos = (qdir[0] * tdir[0] + qdir[1] * tdir[1]).abs();
                 if cos < cos_max || qlen.min(tlen) < config.min_length_ratio * qlen.max(tlen) {
@@ -251,12 +252,13 @@ mod tests {
         let (mut d1, mut d2) = (Vec::new(), Vec::new());
         lbd.describe(&gx1.view(), &gy1.view(), &first, &mut d1);
         lbd.describe(&gx2.view(), &gy2.view(), &second, &mut d2);
+        let (l1, l2) = (detected(&first), detected(&second));
         let q = LineSet {
-            segments: &first,
+            lines: &l1,
             descriptors: &d1,
         };
         let t = LineSet {
-            segments: &second,
+            lines: &l2,
             descriptors: &d2,
         };
         let mut matcher = LineMatcher::new(LineMatchConfig::default());
@@ -290,21 +292,31 @@ mod tests {
         assert!(correct_grid as f32 >= 0.5 * n as f32);
     }
 
+    fn detected(segments: &[Segment]) -> Vec<DetectedLine> {
+        segments
+            .iter()
+            .map(|&segment| DetectedLine {
+                segment,
+                mean_gradient: 1.0,
+            })
+            .collect()
+    }
+
     #[test]
     fn gates_and_empty_inputs() {
-        let s = [Segment::new(0.0, 0.0, 100.0, 0.0)];
+        let s = detected(&[Segment::new(0.0, 0.0, 100.0, 0.0)]);
         let d = [[0u64; 4]];
-        let rotated = [Segment::new(0.0, 0.0, 0.0, 100.0)];
-        let short = [Segment::new(0.0, 0.0, 20.0, 0.0)];
+        let rotated = detected(&[Segment::new(0.0, 0.0, 0.0, 100.0)]);
+        let short = detected(&[Segment::new(0.0, 0.0, 20.0, 0.0)]);
         let mut m = LineMatcher::new(LineMatchConfig::default());
         let mut out = Vec::new();
         m.match_lines(
             LineSet {
-                segments: &s,
+                lines: &s,
                 descriptors: &d,
             },
             LineSet {
-                segments: &s,
+                lines: &s,
                 descriptors: &d,
             },
             None,
@@ -320,11 +332,11 @@ mod tests {
         );
         m.match_lines(
             LineSet {
-                segments: &s,
+                lines: &s,
                 descriptors: &d,
             },
             LineSet {
-                segments: &rotated,
+                lines: &rotated,
                 descriptors: &d,
             },
             None,
@@ -333,11 +345,11 @@ mod tests {
         assert!(out.is_empty(), "90 degrees apart");
         m.match_lines(
             LineSet {
-                segments: &s,
+                lines: &s,
                 descriptors: &d,
             },
             LineSet {
-                segments: &short,
+                lines: &short,
                 descriptors: &d,
             },
             None,
@@ -346,11 +358,11 @@ mod tests {
         assert!(out.is_empty(), "length ratio 0.2");
         m.match_lines(
             LineSet {
-                segments: &[],
+                lines: &[],
                 descriptors: &[],
             },
             LineSet {
-                segments: &s,
+                lines: &s,
                 descriptors: &d,
             },
             None,
@@ -361,11 +373,11 @@ mod tests {
         lists.push(&[7, 0]);
         m.match_lines(
             LineSet {
-                segments: &s,
+                lines: &s,
                 descriptors: &d,
             },
             LineSet {
-                segments: &s,
+                lines: &s,
                 descriptors: &d,
             },
             Some(&lists),
