@@ -43,8 +43,10 @@
 //!   no node removes; [`IpcRun::finish`] removes it when the run is over.
 //! - Samples a subscriber has not yet connected to (it connects on `receive`) vanish
 //!   when their publisher is dropped: a publisher that exits right after sending loses
-//!   them. Once connected, the subscriber keeps a dead publisher's queued samples.
-//! - Ports are not `Send`: in `threads` mode each thread creates its own node and ports.
+//!   them. Once connected, a subscriber still receives what a dropped publisher had
+//!   queued for it.
+//! - Ports of `ipc::Service` / `local::Service` are not `Send` (they hold `Rc`s): in
+//!   `threads` mode each thread creates its own node and ports.
 //! - A SIGKILLed process's node, ports, connections and data segments stay until some
 //!   process calls [`IpcRun::cleanup_dead_nodes`] (new nodes and opened services also
 //!   clean up dead nodes by default); its samples then return to the publishers.
