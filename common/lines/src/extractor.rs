@@ -10,11 +10,11 @@ use crate::lines3d::{Line3, Line3Estimator, Lines3dConfig};
 use crate::matching::LineSet;
 use gfs_core::ImageView;
 use gfs_core::camera::PinholeCamera;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::time::{Duration, Instant};
 
 /// The `[lines]` table of the config file: one sub-table per step.
-#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Deserialize, Serialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LineConfig {
     /// `[lines.detect]`: EDLines and joining.
@@ -378,5 +378,11 @@ mod tests {
         );
         assert_eq!(config.lbd, LbdConfig::default());
         assert!(toml::from_str::<LineConfig>("[grid]\ncells = 3\n").is_err());
+        // The defaults written out read back unchanged (a full `[lines]` table).
+        let written = toml::to_string(&LineConfig::default()).unwrap();
+        assert_eq!(
+            toml::from_str::<LineConfig>(&written).unwrap(),
+            LineConfig::default()
+        );
     }
 }

@@ -13,10 +13,10 @@
 //! warm [`LineGrid`] does not allocate.
 
 use crate::Segment;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Parameters of the grid.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct GridConfig {
     /// Side of a square cell in pixels. Default 40 (a 16 x 12 grid on 640 x 480 images,

@@ -22,7 +22,7 @@
 
 use crate::Segment;
 use gfs_core::ImageView;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// A 256-bit LBD descriptor; bit `8 p + k` is comparison `k` of band pair `p`.
 pub type LbdDescriptor = [u64; 4];
@@ -68,7 +68,7 @@ const PAIRS: [(usize, usize); 32] = [
 ];
 
 /// Parameters of the descriptor.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LbdConfig {
     /// Rows (pixels) per band. Default 7, the LBD paper's and OpenCV's choice.

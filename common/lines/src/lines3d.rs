@@ -12,7 +12,7 @@ use crate::Segment;
 use gfs_core::ImageView;
 use gfs_core::camera::PinholeCamera;
 use nalgebra::{Matrix3, Vector3};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// A 3D segment in the camera frame (metres), from the 2D `start` to the 2D `end`.
 /// Plain `#[repr(C)]` data (28 bytes, no padding) for zero-copy messages.
@@ -36,7 +36,7 @@ impl Line3 {
 }
 
 /// Parameters of the 3D line fit.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Lines3dConfig {
     /// Distance between depth samples along the segment, pixels. Default 1.5.

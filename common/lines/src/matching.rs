@@ -4,10 +4,10 @@
 
 use crate::lbd::{LbdDescriptor, hamming};
 use crate::{DetectedLine, Segment};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Parameters of the matcher.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LineMatchConfig {
     /// Largest accepted Hamming distance (of 256 bits). Default 80, about where

@@ -1,9 +1,9 @@
 //! Parameters of the homogenisation (`[lines.homogenise]`).
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Which homogenisation scheme runs (section III-B).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum HomogeniseScheme {
     /// Keep every detected line.
@@ -19,7 +19,7 @@ pub enum HomogeniseScheme {
 }
 
 /// The penalty of the score scheme for the lines that do not win a cell.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum ScorePenalty {
     /// Formula (2): `na^4 / 2`.
@@ -42,7 +42,7 @@ pub enum ScorePenalty {
 /// per-dataset constant (the paper's fixed T fails when a sequence swings from 20 to 323
 /// lines), and when at most `min_lines` lines exist all are kept. Without `adaptive` the
 /// target is `fixed_target` (the paper's T).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct HomogeniseConfig {
     /// The scheme. Default `score`.
