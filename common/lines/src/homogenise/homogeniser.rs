@@ -74,6 +74,9 @@ impl Homogeniser {
             keep.extend(0..n as u32);
             return;
         }
+        if self.target == 0 {
+            return;
+        }
         match self.config.scheme {
             HomogeniseScheme::None => keep.extend(0..n as u32),
             HomogeniseScheme::Quadtree | HomogeniseScheme::Midpoint => {
@@ -226,5 +229,23 @@ mod tests {
         let mut keep = vec![3];
         h.select(&[], &grid, &mut keep);
         assert!(keep.is_empty());
+        // A zero target (fixed_target = 0) keeps nothing, for every scheme.
+        let lines = scene();
+        let mut grid = LineGrid::new(&GridConfig::default());
+        grid.build(640, 480, lines.iter().map(|l| &l.segment));
+        for scheme in [
+            HomogeniseScheme::Quadtree,
+            HomogeniseScheme::Midpoint,
+            HomogeniseScheme::Score,
+        ] {
+            let config = HomogeniseConfig {
+                scheme,
+                adaptive: false,
+                fixed_target: 0,
+                ..HomogeniseConfig::default()
+            };
+            Homogeniser::new(config).select(&lines, &grid, &mut keep);
+            assert!(keep.is_empty(), "{scheme:?}");
+        }
     }
 }
