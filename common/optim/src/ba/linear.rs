@@ -17,10 +17,10 @@ use super::normal::{Linearization, Step};
 use super::problem::BaProblem;
 use super::terms::{BaFlags, Terms};
 use crate::lm::Damping;
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
-use faer::{MatMut, Side};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::{SymbolicCholesky, factorize_symbolic_cholesky};
+use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
+use faer::{Conj, MatMut, Par, Side};
 use nalgebra::{Matrix3, Matrix6, Matrix6x3, Vector3, Vector6};
 use std::collections::HashMap;
 
@@ -47,11 +47,7 @@ pub(crate) struct ReducedSystem {
     line_obs_slot: Vec<usize>,
     parallel_slot: Vec<usize>,
     perpendicular_slot: Vec<usize>,
-    symbolic: Option<(
-        SymbolicSparseColMat<usize>,
-        Argsort<usize>,
-        SymbolicLlt<usize>,
-    )>,
+    factorization: Option<Factorization>,
     slot_values: Vec<Matrix6<f64>>,
     values: Vec<f64>,
     rhs: Vec<f64>,
@@ -59,6 +55,17 @@ pub(crate) struct ReducedSystem {
     line_inverse: Vec<Matrix6<f64>>,
     scratch_y3: Vec<Matrix6x3<f64>>,
     scratch_y6: Vec<Matrix6<f64>>,
+}
+
+/// The reduced matrix (fixed pattern, values rewritten every solve) and its sparse
+/// Cholesky factorisation with every buffer allocated once per pass.
+struct Factorization {
+    matrix: SparseColMat<usize, f64>,
+    /// For each stored (CSC) value of `matrix`, its index in the block pattern order.
+    pattern_index: Vec<usize>,
+    symbolic: SymbolicCholesky<usize>,
+    factor_values: Vec<f64>,
+    scratch: MemBuffer,
 }
 
 /// Why a damped system could not be solved (the LM step is then rejected).
@@ -282,7 +289,7 @@ impl ReducedSystem {
         }
 
         let n = 6 * self.blocks;
-        self.symbolic = None;
+        self.factorization = None;
         if n == 0 {
             return Ok(());
         }
@@ -303,11 +310,34 @@ impl ReducedSystem {
             dimension: n,
             reason,
         };
-        let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &pattern)
+        let (pattern_csc, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &pattern)
             .map_err(|e| solver_error(format!("{e:?}")))?;
-        let llt = SymbolicLlt::try_new(symbolic.as_ref(), Side::Lower)
+        // Build the matrix with each value equal to its pattern index, so that its CSC
+        // value array tells where every pattern entry goes (exact below 2^53 entries).
+        let indices: Vec<f64> = (0..pattern.len()).map(|i| i as f64).collect();
+        let matrix = SparseColMat::new_from_argsort(pattern_csc, &argsort, &indices)
             .map_err(|e| solver_error(format!("{e:?}")))?;
-        self.symbolic = Some((symbolic, argsort, llt));
+        let pattern_index = matrix.val().iter().map(|&v| v as usize).collect();
+        let symbolic = factorize_symbolic_cholesky(
+            matrix.symbolic(),
+            Side::Lower,
+            Default::default(),
+            Default::default(),
+        )
+        .map_err(|e| solver_error(format!("{e:?}")))?;
+        let scratch_req = symbolic
+            .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
+            .or(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
+        let scratch =
+            MemBuffer::try_new(scratch_req).map_err(|e| solver_error(format!("{e:?}")))?;
+        let factor_values = vec![0.0; symbolic.len_val()];
+        self.factorization = Some(Factorization {
+            matrix,
+            pattern_index,
+            symbolic,
+            factor_values,
+            scratch,
+        });
         Ok(())
     }
 
@@ -444,7 +474,7 @@ impl ReducedSystem {
 
     /// Factorises the reduced matrix and overwrites `rhs` with the reduced step.
     fn factor_and_solve(&mut self) -> Result<(), NotPositiveDefinite> {
-        let Some((symbolic, argsort, llt)) = &self.symbolic else {
+        let Some(f) = &mut self.factorization else {
             return Ok(());
         };
         self.values.clear();
@@ -457,12 +487,28 @@ impl ReducedSystem {
                 }
             }
         }
-        let matrix = SparseColMat::new_from_argsort(symbolic.clone(), argsort, &self.values)
-            .map_err(|_| NotPositiveDefinite)?;
-        let factor = Llt::try_new_with_symbolic(llt.clone(), matrix.as_ref(), Side::Lower)
+        for (stored, &index) in f.matrix.val_mut().iter_mut().zip(&f.pattern_index) {
+            *stored = self.values[index];
+        }
+        let factor = f
+            .symbolic
+            .factorize_numeric_llt(
+                &mut f.factor_values,
+                f.matrix.as_ref(),
+                Side::Lower,
+                Default::default(),
+                Par::Seq,
+                MemStack::new(&mut f.scratch),
+                Default::default(),
+            )
             .map_err(|_| NotPositiveDefinite)?;
         let n = self.rhs.len();
-        factor.solve_in_place(MatMut::from_column_major_slice_mut(&mut self.rhs, n, 1));
+        factor.solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(&mut self.rhs, n, 1),
+            Par::Seq,
+            MemStack::new(&mut f.scratch),
+        );
         if self.rhs.iter().all(|v| v.is_finite()) {
             Ok(())
         } else {
