@@ -92,8 +92,8 @@ impl ManhattanEstimator {
     ///   shorter slice; zero, negative or non-finite entries are skipped;
     /// - `predicted_rotation`: `current_from_previous`, the rotation taking a vector in
     ///   the previous camera frame to this one (`R_wc_k^T * R_wc_{k-1}`), identity when
-    ///   `None`. It carries the previous axes into this frame, so that each new axis is
-    ///   matched to the same axis with the same sign.
+    ///   `None` (or not finite). It carries the previous axes into this frame, so that
+    ///   each new axis is matched to the same axis with the same sign.
     pub fn estimate(
         &mut self,
         planes: &[Plane],
@@ -101,9 +101,10 @@ impl ManhattanEstimator {
         line_weights: &[f32],
         predicted_rotation: Option<&Rotation3<f64>>,
     ) -> Option<ManhattanAxes> {
-        let predicted = self
-            .previous
-            .map(|prev| predicted_rotation.map_or(prev, |r| r * prev));
+        // A prediction that is not a finite rotation is projected onto SO(3), or
+        // ignored when that fails, so that it can never poison the history.
+        let step = predicted_rotation.and_then(|r| closest_rotation(r.matrix()));
+        let predicted = self.previous.map(|prev| step.map_or(prev, |r| r * prev));
         self.collect_directions(planes, line_dirs, line_weights);
         let axes = self.solve(predicted.as_ref());
         self.previous = match &axes {
@@ -339,6 +340,24 @@ mod tests {
             })
             .collect();
         assert!(est.estimate(&[], &dirs, &[1.0; 40], None).is_none());
+    }
+
+    #[test]
+    fn a_non_finite_prediction_is_ignored() {
+        let mut est = ManhattanEstimator::new(&PlaneConfig::default()).unwrap();
+        let walls = [plane([0.0, 0.0, -1.0], 9000), plane([1.0, 0.0, 0.0], 5000)];
+        let first = est.estimate(&walls, &[], &[], None).unwrap();
+        let nan = Rotation3::from_matrix_unchecked(Matrix3::repeat(f64::NAN));
+        let second = est.estimate(&walls, &[], &[], Some(&nan)).unwrap();
+        let diff = (second.rotation.matrix() - first.rotation.matrix()).amax();
+        assert!(diff < 1e-9, "{first:?} {second:?}");
+        assert!(
+            est.previous()
+                .unwrap()
+                .matrix()
+                .iter()
+                .all(|x| x.is_finite())
+        );
     }
 
     #[test]
