@@ -149,7 +149,10 @@ impl Line3Estimator {
     ) -> Line3 {
         let invalid = Line3::default();
         let len = segment.length();
-        if !(len.is_finite() && len >= 2.0) || depth.is_empty() {
+        // Longer than twice the image perimeter: not a segment of this image (and the
+        // sample count must stay bounded).
+        let longest = 4.0 * (depth.width() + depth.height()) as f32;
+        if !(len.is_finite() && len >= 2.0 && len <= longest) || depth.is_empty() {
             return invalid;
         }
         self.sample_depths(depth, segment, len);
@@ -565,6 +568,8 @@ mod tests {
         let line = estimator.estimate_one(&partial.view(), &cam, &s);
         assert!(line.is_valid());
         assert!((line.start[2] - 2.0).abs() < 1e-3 && (line.end[2] - 2.0).abs() < 1e-3);
+        let huge = Segment::new(-1e30, 0.0, 1e30, 5.0);
+        assert!(!estimator.estimate_one(&partial.view(), &cam, &huge).is_valid());
         let tiny = Image::<f32>::new(0, 0);
         assert!(!estimator.estimate_one(&tiny.view(), &cam, &s).is_valid());
         let mut out = Vec::new();
