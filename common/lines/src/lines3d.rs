@@ -569,7 +569,11 @@ mod tests {
         assert!(line.is_valid());
         assert!((line.start[2] - 2.0).abs() < 1e-3 && (line.end[2] - 2.0).abs() < 1e-3);
         let huge = Segment::new(-1e30, 0.0, 1e30, 5.0);
-        assert!(!estimator.estimate_one(&partial.view(), &cam, &huge).is_valid());
+        assert!(
+            !estimator
+                .estimate_one(&partial.view(), &cam, &huge)
+                .is_valid()
+        );
         let tiny = Image::<f32>::new(0, 0);
         assert!(!estimator.estimate_one(&tiny.view(), &cam, &s).is_valid());
         let mut out = Vec::new();
