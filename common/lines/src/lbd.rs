@@ -11,7 +11,7 @@
 //!
 //! The 256 bits compare the 8 numbers of two bands, entry by entry, for 32 band pairs
 //! (the pair layout of the binary LBD of OpenCV's `line_descriptor`, used here as data):
-//! bit = band_a[k] > band_b[k]. The float LBD's unit normalisation does not change such
+//! `bit = band_a[k] > band_b[k]`. The float LBD's unit normalisation does not change such
 //! comparisons, so it is skipped.
 //!
 //! The frame is oriented by the gradient (the normal points along the mean gradient
