@@ -10,8 +10,7 @@ use std::time::Instant;
 
 /// Arguments of `gfsvo synth`.
 #[derive(Args)]
-#[command(
-    long_about = "Render a synthetic RGB-D sequence with ground truth in TUM layout.\n\n\
+#[command(after_help = "\
 A procedural indoor Manhattan scene (walls, floor, ceiling, furniture, door / window / \
 picture frames, objects rotated about the vertical, procedural textures) is ray cast \
 along a smooth hand-held-like trajectory at 30 Hz. The output folder holds rgb/ and \
@@ -21,8 +20,7 @@ which `gfsvo` picks up when it reads the folder).\n\n\
 The same flags and seed always give the same images, bit for bit.\n\n\
 Examples:\n  gfsvo synth                                   # room, slow, 300 frames, mild noise\n  \
 gfsvo synth --scene corridor --traj fast --frames 600 --seed 7\n  \
-gfsvo synth --scene low-texture --clean --out /tmp/lowtex   # exact depth, clean colour"
-)]
+gfsvo synth --scene low-texture --clean --out /tmp/lowtex   # exact depth, clean colour")]
 pub struct SynthArgs {
     /// Scene: `room` (textured: bricks, posters, shelves, tiles), `low-texture` (plain
     /// walls, a few frames and boxes), `corridor` (14 m long, doors on both sides).
