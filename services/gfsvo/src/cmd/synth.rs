@@ -86,7 +86,7 @@ enum TrajArg {
 
 impl SynthArgs {
     fn config(&self) -> CliResult<SynthConfig> {
-        if self.width < 16 || self.width % 4 != 0 {
+        if self.width < 16 || !self.width.is_multiple_of(4) {
             return Err(format!(
                 "--width {} must be a multiple of 4, at least 16",
                 self.width
