@@ -219,10 +219,12 @@ fn extend(s: &mut Segment, field: &GradientField<'_>, max_gap: usize, cos_tolera
     let [a, b, _] = s.line_coefficients();
     let normal = [a, b];
     let dir = [(s.end[0] - s.start[0]) / len, (s.end[1] - s.start[1]) / len];
+    // No extension can leave the image, whatever the gap setting.
+    let limit = field.magnitude.width() + field.magnitude.height();
     let reach = |from: [f32; 2], sign: f32| {
         let mut last = 0usize;
         let mut t = 1usize;
-        while t - last <= max_gap + 1 {
+        while t - last <= max_gap.saturating_add(1) && t <= limit {
             let step = sign * t as f32;
             if field.supports(
                 from[0] + step * dir[0],

@@ -227,6 +227,27 @@ fn degenerate_images_give_no_lines_and_no_panic() {
 }
 
 #[test]
+fn out_of_range_configs_do_not_panic() {
+    let (img, _) = polygon_scene(3);
+    let mut config = DetectConfig {
+        gradient_threshold: 0,
+        anchor_threshold: u16::MAX,
+        scan_interval: 0,
+        max_fit_error: f32::NAN,
+        aligned_angle_deg: f32::INFINITY,
+        max_nfa: f64::NAN,
+        ..DetectConfig::default()
+    };
+    config.join.extension_gap = usize::MAX;
+    config.join.merge_angle_deg = f32::NAN;
+    config.join.merge_gap = f32::INFINITY;
+    assert!(config.validate().is_err());
+    let mut detector = LineDetector::new(config);
+    let lines = detect_and_join(&mut detector, &img);
+    assert!(lines.iter().all(|l| l.segment.length().is_finite()));
+}
+
+#[test]
 fn segments_keep_the_bright_side_positive() {
     let mut canvas = Canvas::new(120, 120, |_, _| 40.0);
     canvas.fill_polygon(&rectangle([60.0, 60.0], 60.0, 44.0, 0.3), 200.0);
