@@ -314,22 +314,30 @@ impl Detector {
             self.cell_counts[cy * cols + cx] += 1;
         }
         if config.fast_min_threshold < config.fast_threshold {
+            // Retry the empty cells at the minimum threshold, a run of adjacent empty
+            // cells of a cell row at a time (one wider rectangle vectorises better).
             for cy in 0..rows {
-                for cx in 0..cols {
+                let mut cx = 0;
+                while cx < cols {
                     if self.cell_counts[cy * cols + cx] != 0 {
+                        cx += 1;
                         continue;
                     }
-                    let cell_rect = Rect {
-                        x0: area.x0 + cx * cell_w,
-                        x1: (area.x0 + (cx + 1) * cell_w).min(area.x1),
+                    let first = cx;
+                    while cx < cols && self.cell_counts[cy * cols + cx] == 0 {
+                        cx += 1;
+                    }
+                    let cells = Rect {
+                        x0: area.x0 + first * cell_w,
+                        x1: (area.x0 + cx * cell_w).min(area.x1),
                         y0: area.y0 + cy * cell_h,
                         y1: (area.y0 + (cy + 1) * cell_h).min(area.y1),
                     };
                     let margin = Rect {
-                        x0: cell_rect.x0 - 1,
-                        x1: cell_rect.x1 + 1,
-                        y0: cell_rect.y0 - 1,
-                        y1: cell_rect.y1 + 1,
+                        x0: cells.x0 - 1,
+                        x1: cells.x1 + 1,
+                        y0: cells.y0 - 1,
+                        y1: cells.y1 + 1,
                     };
                     self.hits.clear();
                     fast::score_rect(
@@ -343,7 +351,7 @@ impl Detector {
                     fast::local_maxima(
                         self.scores.as_slice(),
                         w,
-                        cell_rect,
+                        cells,
                         &self.hits,
                         &mut self.corners,
                     );

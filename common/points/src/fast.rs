@@ -149,8 +149,9 @@ fn score_rect_lanes<const L: usize>(
 }
 
 /// Scores of one row (`out.len() >= L` pixels from flat index `row_base`) in blocks of
-/// `L`; the tail is one block overlapping the previous one (same scores, hits pushed
-/// once). Hits are pushed as `(column in the row, 0)`.
+/// `L`; a tail of at most 16 pixels is one 16-lane block, a longer one an `L` block,
+/// overlapping the previous block (same scores, hits pushed once). Hits are pushed as
+/// `(column in the row, 0)`.
 #[inline(always)]
 fn row_blocks<const L: usize>(
     data: &[u8],
@@ -161,23 +162,35 @@ fn row_blocks<const L: usize>(
     hits: &mut Vec<(u32, u32)>,
 ) {
     let n = out.len();
-    let mut start = 0;
-    let mut fresh_from = 0;
-    loop {
+    let full = n / L * L;
+    let mut push = |start: usize, mut found: u64| {
+        while found != 0 {
+            hits.push(((start + found.trailing_zeros() as usize) as u32, 0));
+            found &= found - 1;
+        }
+    };
+    for start in (0..full).step_by(L) {
         let lanes: &mut [u8; L] = (&mut out[start..start + L]).try_into().expect("L lanes");
-        if block_scores(data, row_base + start as isize, offsets, threshold, lanes) {
-            for (i, &s) in lanes.iter().enumerate().skip(fresh_from) {
-                if s != 0 {
-                    hits.push(((start + i) as u32, 0));
-                }
-            }
-        }
-        if start + L == n {
-            break;
-        }
-        let next = (start + L).min(n - L);
-        fresh_from = start + L - next;
-        start = next;
+        push(
+            start,
+            block_scores(data, row_base + start as isize, offsets, threshold, lanes),
+        );
+    }
+    let tail = n - full;
+    if tail == 0 {
+        return;
+    }
+    let fresh = !0u64;
+    if L > 16 && tail <= 16 {
+        let start = n - 16;
+        let lanes: &mut [u8; 16] = (&mut out[start..n]).try_into().expect("16 lanes");
+        let found = block_scores(data, row_base + start as isize, offsets, threshold, lanes);
+        push(start, found & (fresh << (16 - tail)));
+    } else {
+        let start = n - L;
+        let lanes: &mut [u8; L] = (&mut out[start..n]).try_into().expect("L lanes");
+        let found = block_scores(data, row_base + start as isize, offsets, threshold, lanes);
+        push(start, found & (fresh << (L - tail)));
     }
 }
 
@@ -204,11 +217,15 @@ fn greater<const L: usize>(a: &[i8; L], b: &[i8; L]) -> [i8; L] {
     m
 }
 
-/// FAST test of the `L` pixels starting at flat index `base`, scores into `out`; false
-/// (and all zeros) when none is a corner. Branch-free over the lanes so that it
-/// auto-vectorises: a compass pre-test (a 9-arc always covers two adjacent points of
-/// ring 0, 4, 8, 12) rejects flat blocks, then run-length counters over the ring
-/// unrolled to 24 positions find 9 contiguous brighter or darker pixels.
+/// FAST test of the `L <= 64` pixels starting at flat index `base`: scores into `out`,
+/// and the bit mask of the corners (bit i = lane i) as result.
+///
+/// Branch-free over the lanes so that it auto-vectorises. Two pre-tests reject most
+/// blocks: a 9-arc covers two adjacent compass points (ring 0, 4, 8, 12), and four
+/// consecutive even points. The full test then needs only the even starts: a 9-arc
+/// starting at `2e` is the 8-run `2e..2e+7` plus `2e+8`, one starting at `2e-1` is the
+/// same 8-run plus `2e-1`; the 8-runs at even starts come from three rounds of pairwise
+/// ANDs.
 #[inline(always)]
 fn block_scores<const L: usize>(
     data: &[u8],
@@ -216,7 +233,7 @@ fn block_scores<const L: usize>(
     offsets: &[isize; 16],
     t: u8,
     out: &mut [u8; L],
-) -> bool {
+) -> u64 {
     let centre: &[u8; L] = data[base as usize..base as usize + L]
         .try_into()
         .expect("L bytes");
@@ -226,67 +243,127 @@ fn block_scores<const L: usize>(
         hi[i] = (centre[i].saturating_add(t) ^ 0x80) as i8;
         lo[i] = (centre[i].saturating_sub(t) ^ 0x80) as i8;
     }
-    let mut bright = [[0i8; L]; 4];
-    let mut dark = [[0i8; L]; 4];
-    for (k, ring) in [0, 4, 8, 12].into_iter().enumerate() {
-        let p = load_signed::<L>(data, base + offsets[ring]);
-        bright[k] = greater(&p, &hi);
-        dark[k] = greater(&lo, &p);
+    // Masks per ring point: brighter than centre + t, darker than centre - t.
+    let mut bright = [[0i8; L]; 16];
+    let mut dark = [[0i8; L]; 16];
+    for k in [0, 4, 8, 12] {
+        classify(
+            data,
+            base + offsets[k],
+            &hi,
+            &lo,
+            &mut bright[k],
+            &mut dark[k],
+        );
     }
-    let mut any = 0i8;
-    for i in 0..L {
-        let (b, d) = (&bright, &dark);
-        any |= (b[0][i] & b[1][i])
-            | (b[1][i] & b[2][i])
-            | (b[2][i] & b[3][i])
-            | (b[3][i] & b[0][i])
-            | (d[0][i] & d[1][i])
-            | (d[1][i] & d[2][i])
-            | (d[2][i] & d[3][i])
-            | (d[3][i] & d[0][i]);
-    }
-    if any == 0 {
-        out.fill(0);
-        return false;
-    }
-    let mut run_b = [0i8; L];
-    let mut run_d = [0i8; L];
-    let mut max_b = [0i8; L];
-    let mut max_d = [0i8; L];
-    for k in 0..16 + 8 {
-        let p = load_signed::<L>(data, base + offsets[k % 16]);
-        let b = greater(&p, &hi);
-        let d = greater(&lo, &p);
+    let mut any = [0i8; L];
+    for m in [&bright, &dark] {
         for i in 0..L {
-            // A mask of -1 extends the run (run - (-1)), 0 resets it.
-            run_b[i] = run_b[i].wrapping_sub(b[i]) & b[i];
-            run_d[i] = run_d[i].wrapping_sub(d[i]) & d[i];
-            max_b[i] = max_b[i].max(run_b[i]);
-            max_d[i] = max_d[i].max(run_d[i]);
+            any[i] |= (m[0][i] | m[8][i]) & (m[4][i] | m[12][i]);
         }
     }
-    let mut corner = [0i8; L];
-    let mut any = 0i8;
-    for i in 0..L {
-        corner[i] = -i8::from(max_b[i] >= 9 || max_d[i] >= 9);
-        any |= corner[i];
+    if any.iter().fold(0, |a, &b| a | b) == 0 {
+        out.fill(0);
+        return 0;
     }
+    for k in [2, 6, 10, 14] {
+        classify(
+            data,
+            base + offsets[k],
+            &hi,
+            &lo,
+            &mut bright[k],
+            &mut dark[k],
+        );
+    }
+    let mut any = [0i8; L];
+    for m in [&bright, &dark] {
+        let mut pair = [[0i8; L]; 8];
+        for e in 0..8 {
+            for i in 0..L {
+                pair[e][i] = m[2 * e][i] & m[(2 * e + 2) % 16][i];
+            }
+        }
+        for e in 0..8 {
+            for i in 0..L {
+                any[i] |= pair[e][i] & pair[(e + 1) % 8][i];
+            }
+        }
+    }
+    if any.iter().fold(0, |a, &b| a | b) == 0 {
+        out.fill(0);
+        return 0;
+    }
+    for k in [1, 3, 5, 7, 9, 11, 13, 15] {
+        classify(
+            data,
+            base + offsets[k],
+            &hi,
+            &lo,
+            &mut bright[k],
+            &mut dark[k],
+        );
+    }
+    let corner_b = arc9(&bright);
+    let corner_d = arc9(&dark);
     out.fill(0);
-    if any == 0 {
-        return false;
+    let mut corners = 0u64;
+    for i in 0..L {
+        corners |= u64::from((corner_b[i] | corner_d[i]) != 0) << i;
     }
     // Corners are rare (about 1 pixel in 100 at threshold 20): score them one by one.
-    for (i, o) in out.iter_mut().enumerate() {
-        if corner[i] != 0 {
-            let at = base + i as isize;
-            let mut ring = [0u8; 16];
-            for (p, &off) in ring.iter_mut().zip(offsets) {
-                *p = data[(at + off) as usize];
-            }
-            *o = arc_score(&ring, centre[i], max_b[i] >= 9);
+    let mut rest = corners;
+    while rest != 0 {
+        let i = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        let at = base + i as isize;
+        let mut ring = [0u8; 16];
+        for (p, &off) in ring.iter_mut().zip(offsets) {
+            *p = data[(at + off) as usize];
+        }
+        out[i] = arc_score(&ring, centre[i], corner_b[i] != 0);
+    }
+    corners
+}
+
+/// Masks of the ring pixels at `at`: brighter than `hi`, darker than `lo`.
+#[inline(always)]
+fn classify<const L: usize>(
+    data: &[u8],
+    at: isize,
+    hi: &[i8; L],
+    lo: &[i8; L],
+    bright: &mut [i8; L],
+    dark: &mut [i8; L],
+) {
+    let p = load_signed::<L>(data, at);
+    *bright = greater(&p, hi);
+    *dark = greater(lo, &p);
+}
+
+/// Lane mask of "the 16 ring masks `m` hold 9 contiguous set points".
+#[inline(always)]
+fn arc9<const L: usize>(m: &[[i8; L]; 16]) -> [i8; L] {
+    let mut run = [[0i8; L]; 8];
+    for e in 0..8 {
+        for i in 0..L {
+            run[e][i] = m[2 * e][i] & m[2 * e + 1][i];
         }
     }
-    true
+    let mut run4 = [[0i8; L]; 8];
+    for e in 0..8 {
+        for i in 0..L {
+            run4[e][i] = run[e][i] & run[(e + 1) % 8][i];
+        }
+    }
+    let mut out = [0i8; L];
+    for e in 0..8 {
+        for i in 0..L {
+            let run8 = run4[e][i] & run4[(e + 2) % 8][i];
+            out[i] |= run8 & (m[(2 * e + 8) % 16][i] | m[(2 * e + 15) % 16][i]);
+        }
+    }
+    out
 }
 
 /// Full ring test of the pixel at flat index `base`; its score when it is a corner at
