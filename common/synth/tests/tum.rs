@@ -119,3 +119,39 @@ fn write_tum_into_an_unwritable_place_is_an_error_naming_it() {
     assert!(err.contains("not-a-dir"), "{err}");
     fs::remove_file(&file).unwrap();
 }
+
+#[test]
+fn the_project_dataset_reader_reads_back_what_was_rendered() {
+    let seq = SynthSequence::new(SynthConfig {
+        frames: 4,
+        camera: SynthConfig::scaled_camera(64),
+        ..SynthConfig::default()
+    });
+    let dir = temp_dir("reader");
+    seq.write_tum(&dir, |_| {}).unwrap();
+    let camera = gfs_core::camera::Camera {
+        pinhole: seq.config().camera,
+        distortion: Default::default(),
+    };
+    let dataset =
+        gfs_dataset::Sequence::open(&dir, &camera, &gfs_dataset::DepthConfig::default()).unwrap();
+    assert_eq!(dataset.len(), 4);
+    for i in 0..4 {
+        let (read, rendered) = (dataset.load(i).unwrap(), seq.render(i));
+        assert!((read.timestamp - rendered.timestamp).abs() < 1e-6);
+        assert_eq!(read.rgb, rendered.rgb, "frame {i}");
+        assert_eq!(read.gray, rendered.gray, "frame {i}");
+        for (a, b) in read.depth.as_slice().iter().zip(rendered.depth.as_slice()) {
+            assert!(
+                (a - b).abs() < 1e-6,
+                "frame {i}: depth {a} read, {b} rendered"
+            );
+        }
+    }
+    let gt = gfs_dataset::Trajectory::read_tum(&dir.join("groundtruth.txt")).unwrap();
+    for (i, pose) in gt.poses().iter().enumerate() {
+        assert!((pose.translation.vector - seq.pose(i).translation.vector).norm() < 1e-8);
+        assert!(pose.rotation.angle_to(&seq.pose(i).rotation) < 1e-8);
+    }
+    fs::remove_dir_all(&dir).unwrap();
+}
