@@ -1,6 +1,7 @@
 //! A stage process that owns a node, a subscriber and a publisher is stopped from the
 //! outside, as the supervisor will do:
-//! - SIGKILL: its resources stay behind until `IpcRun::cleanup_dead_nodes` removes them;
+//! - SIGKILL: its resources stay behind until `IpcRun::cleanup_dead_nodes` removes them,
+//!   and a restarted stage receives the frames it missed from the publisher's history;
 //! - SIGTERM: a stage built on `IpcRun::stage_node` sees the termination request in its
 //!   loop, drops its ports and exits 0 with nothing left to clean.
 //!
@@ -8,7 +9,7 @@
 //! its own child: with `GFS_IPC_TEST_CHILD=<role>:<run-id>` set it plays the stage.
 
 use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, ChildStdout, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use gfs_core::ids::FrameId;
@@ -43,6 +44,20 @@ fn child(role: &str, run_id: &str) {
         .publish_slice(&MsgHeader::new(FrameId(0), 0.0), &[1, 2, 3])
         .expect("child publish");
     println!("ready");
+    if role == "restart" {
+        // A restarted stage: its history arrives once the publisher updates its
+        // connections, without a wake-up, so poll (bounded).
+        let mut ids = Vec::new();
+        let start = Instant::now();
+        while ids.len() < 2 && start.elapsed() < CHILD_LIFETIME {
+            match frames.receive().expect("child receive") {
+                Some(s) => ids.push(s.user_header().frame_id.to_string()),
+                None => std::thread::sleep(Duration::from_millis(1)),
+            }
+        }
+        println!("got {}", ids.join(","));
+        return;
+    }
     if role != "loop" {
         std::thread::sleep(CHILD_LIFETIME);
         return;
@@ -58,18 +73,17 @@ fn child(role: &str, run_id: &str) {
     std::process::exit(2);
 }
 
-fn spawn_stage(run: &IpcRun, role: &str) -> Child {
+/// Starts a stage child and waits for its "ready"; returns it with its stdout lines.
+fn spawn_stage(run: &IpcRun, role: &str) -> (Child, std::io::Lines<BufReader<ChildStdout>>) {
     let mut stage = Command::new(std::env::current_exe().unwrap())
         .env(CHILD_ENV, format!("{role}:{}", run.run_id()))
         .stdout(Stdio::piped())
         .spawn()
         .unwrap();
-    let mut line = String::new();
-    BufReader::new(stage.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    assert_eq!(line.trim(), "ready", "child stage did not start");
-    stage
+    let mut lines = BufReader::new(stage.stdout.take().unwrap()).lines();
+    let ready = lines.next().and_then(Result::ok).unwrap_or_default();
+    assert_eq!(ready, "ready", "child stage did not start");
+    (stage, lines)
 }
 
 /// (name, alive) of every node of the run, sorted.
@@ -90,7 +104,7 @@ fn sigkill_leaves_resources_until_cleanup() {
         let node = run.node::<ipc::Service>("source").unwrap();
         let frames =
             TopicPublisher::<ipc::Service, u32>::create(&run, &node, "frame", &qos(), 64).unwrap();
-        let mut stage = spawn_stage(&run, "sleep");
+        let (mut stage, _) = spawn_stage(&run, "sleep");
         // The child's subscriber holds a frame in its queue when it dies.
         let reached = frames
             .publish_slice(&MsgHeader::new(FrameId(1), 0.1), &[7; 16])
@@ -127,6 +141,15 @@ fn sigkill_leaves_resources_until_cleanup() {
         assert_eq!(reached, 0);
         let report = run.cleanup_dead_nodes::<ipc::Service>().unwrap();
         assert_eq!((report.cleaned, report.failed), (0, 0));
+
+        // The restarted stage gets the frames it missed from the publisher's history
+        // (2 deep) once the idle publisher updates its connections.
+        let (mut restarted, mut lines) = spawn_stage(&run, "restart");
+        frames.update_connections().unwrap();
+        let got = lines.next().and_then(Result::ok).unwrap_or_default();
+        assert_eq!(got, "got 1,2");
+        assert!(restarted.wait().unwrap().success());
+        println!("SIGKILL: restarted stage received history frames 1 and 2");
     }
     let left = run.finish();
     assert!(
@@ -142,7 +165,7 @@ fn sigterm_is_a_clean_exit() {
         let node = run.node::<ipc::Service>("source").unwrap();
         let frames =
             TopicPublisher::<ipc::Service, u32>::create(&run, &node, "frame", &qos(), 64).unwrap();
-        let mut stage = spawn_stage(&run, "loop");
+        let (mut stage, _) = spawn_stage(&run, "loop");
         frames
             .publish_slice(&MsgHeader::new(FrameId(1), 0.1), &[7; 16])
             .unwrap();
