@@ -7,9 +7,10 @@
 //! stage services share about that exchange; it holds no algorithm.
 //!
 //! **Model.**
-//! - A *run* ([`IpcRun`]) is one iceoryx2 universe: its own file prefix and root
-//!   directory, so runs and tests never see each other, and [`IpcRun::leftovers`] tells
-//!   whether anything of it is left in `/dev/shm` or `/tmp/iceoryx2`.
+//! - A *run* ([`IpcRun`]) is one iceoryx2 universe with its own file prefix
+//!   `gfsvo_<run-id>_`, so runs and tests never see each other, and
+//!   [`IpcRun::leftovers`] tells whether anything of it is left in `/dev/shm` or
+//!   `/tmp/iceoryx2`.
 //! - A *topic* is a publish/subscribe service `gfsvo/<run-id>/<topic>` whose payload is a
 //!   slice `[T]` of a plain `#[repr(C)]` type and whose user header is [`MsgHeader`]
 //!   (frame id, capture time, per-stage monotonic stamps). [`TopicPublisher`] and

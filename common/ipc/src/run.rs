@@ -127,7 +127,7 @@ pub struct NodeInfo {
     pub alive: bool,
 }
 
-/// The iceoryx2 setting of one run: its [`RunId`] and the `Config` (prefix, root path)
+/// The iceoryx2 setting of one run: its [`RunId`] and the `Config` (file prefix)
 /// every node of the run must be created with.
 #[derive(Clone, Debug)]
 pub struct IpcRun {
