@@ -216,3 +216,22 @@ fn scene_edges_project_onto_strong_gradients() {
         );
     }
 }
+
+#[test]
+fn render_view_is_the_noise_free_frame_of_the_sequence() {
+    let seq = clean(SceneKind::Room, TrajectoryKind::Slow, 3, 160);
+    let frame = seq.render(2);
+    let (mut rgb, mut depth) = (
+        gfs_core::RgbImage::new(0, 0),
+        gfs_core::DepthImage::new(0, 0),
+    );
+    gfs_synth::render_view(
+        seq.scene(),
+        &seq.config().camera,
+        &seq.pose(2),
+        &mut rgb,
+        &mut depth,
+    );
+    assert_eq!(rgb, frame.rgb);
+    assert_eq!(depth, frame.depth);
+}
