@@ -38,6 +38,8 @@ pub fn run(args: &BenchArgs) -> CliResult {
     let mut total = Vec::new();
     let mut first_total = Vec::new();
     let (mut detected, mut kept, mut valid3d) = (0usize, 0usize, 0usize);
+    // (min, max) per frame, to show how the adaptive target follows the scene.
+    let (mut detected_range, mut kept_range) = ((usize::MAX, 0), (usize::MAX, 0));
     let mut image_written = false;
     for (k, frame) in sequence.frames(args.frames).enumerate() {
         let frame = frame?;
@@ -69,6 +71,11 @@ pub fn run(args: &BenchArgs) -> CliResult {
         let counts = extractor.counts();
         detected += counts.detected;
         kept += counts.kept;
+        detected_range = (
+            detected_range.0.min(counts.detected),
+            detected_range.1.max(counts.detected),
+        );
+        kept_range = (kept_range.0.min(counts.kept), kept_range.1.max(counts.kept));
         valid3d += features.lines3d.iter().filter(|l| l.is_valid()).count();
         if let Some(path) = &args.image_out
             && k == args.image_frame
@@ -124,6 +131,8 @@ pub fn run(args: &BenchArgs) -> CliResult {
             "single_run_total_ms": first_total,
             "lines_before_homogenise_mean": mean(detected),
             "lines_after_homogenise_mean": mean(kept),
+            "lines_before_homogenise_min_max": [detected_range.0, detected_range.1],
+            "lines_after_homogenise_min_max": [kept_range.0, kept_range.1],
             "lines3d_valid_mean": mean(valid3d),
         });
         println!("{out}");
@@ -147,9 +156,14 @@ pub fn run(args: &BenchArgs) -> CliResult {
             "total, single cold run", first_total.median, first_total.p90
         );
         println!(
-            "lines per frame: {:.1} before homogenisation, {:.1} after, {:.1} with a valid 3D line",
+            "lines per frame: {:.1} before homogenisation ({}..{}), {:.1} after ({}..{}), \
+             {:.1} with a valid 3D line",
             mean(detected),
+            detected_range.0,
+            detected_range.1,
             mean(kept),
+            kept_range.0,
+            kept_range.1,
             mean(valid3d)
         );
     }
