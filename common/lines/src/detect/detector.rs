@@ -152,13 +152,16 @@ impl LineDetector {
         join_lines(&self.config.join, &field, lines, &mut self.join);
     }
 
-    /// Sobel derivative along u of the smoothed image of the last [`Self::detect`] call
-    /// (0..255 image units times 4 per pixel; zero on the border).
+    /// Sobel derivative along u of the smoothed image of the last [`Self::detect`] call:
+    /// 8 times the derivative in 0..255 gray levels per pixel (a step of 100 gives 400 on
+    /// the two columns beside it), positive when brighter to the right, zero on the
+    /// border; the frame size.
     pub fn gradient_x(&self) -> ImageView<'_, i16> {
         self.gradients.gx.view()
     }
 
-    /// Sobel derivative along v of the smoothed image of the last [`Self::detect`] call.
+    /// Sobel derivative along v of the smoothed image of the last [`Self::detect`] call,
+    /// positive when brighter below; units as [`Self::gradient_x`].
     pub fn gradient_y(&self) -> ImageView<'_, i16> {
         self.gradients.gy.view()
     }

@@ -224,6 +224,15 @@ fn degenerate_images_give_no_lines_and_no_panic() {
         (s.start[0] - 39.5).abs() < 0.3 && (s.end[0] - 39.5).abs() < 0.3,
         "{s:?}"
     );
+    // Brighter to the right: the normal (dv, -du) / len must point to +u, so the
+    // segment runs downwards (v increasing).
+    assert!(s.end[1] > s.start[1], "{s:?}");
+    // The exposed gradients: a step of 200 after smoothing, Sobel 8 x slope.
+    let (gx, gy) = (detector.gradient_x(), detector.gradient_y());
+    assert_eq!((gx.width(), gx.height()), (80, 60));
+    assert!(gx.get(39, 30).unwrap() > 300 && gx.get(40, 30) == gx.get(39, 30));
+    assert_eq!(gy.get(39, 30), Some(0));
+    assert_eq!(gx.get(10, 30), Some(0));
 }
 
 #[test]
