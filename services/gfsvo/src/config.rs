@@ -23,6 +23,9 @@ pub struct Config {
     /// `[lines]`: line detection, homogenisation, LBD and 3D lines.
     #[serde(default)]
     pub lines: gfs_lines::LineConfig,
+    /// `[points]`: ORB extraction (pyramid, FAST thresholds, feature budget, depth range).
+    #[serde(default)]
+    pub points: gfs_points::OrbConfig,
 }
 
 /// The built-in configs, by name (the file stem in `configs/`).
