@@ -2,13 +2,16 @@
 //! "ELSED: Enhanced line segment drawing", Pattern Recognition 2022): a detector that
 //! stops at every small interruption of an edge (a highlight, an occluding wire, a
 //! texture gap) turns one long line into short pieces, which are worse to match and to
-//! lift to 3D. Two steps, both on the gradients of the detection frame:
+//! lift to 3D. Three steps, all on the gradients of the detection frame:
 //!
 //! 1. **Extension**: each endpoint is pushed outwards along the segment direction while
 //!    the pixels on the line have a gradient above the detection threshold and oriented
 //!    along the segment normal with the segment's polarity (within the alignment
 //!    tolerance), tolerating a few unsupported pixels in a row (ELSED's jumps).
-//! 2. **Merging**: two segments with the same orientation and polarity (angle below
+//! 2. **Endpoint refinement**: each endpoint moves (at most 3 px either way) to where the
+//!    cross-line gradient falls to half of its level along the segment, the sub-pixel
+//!    end of the blurred step edge.
+//! 3. **Merging**: two segments with the same orientation and polarity (angle below
 //!    `merge_angle_deg`), whose endpoints lie within `merge_offset` px of each other's
 //!    line and whose gap along the line is at most `merge_gap` px, are replaced by the
 //!    total-least-squares line of both (each segment weighted by its length), spanning
