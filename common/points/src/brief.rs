@@ -11,13 +11,16 @@ use gfs_core::ImageView;
 /// so a rotated point stays within `round(13 * sqrt(2)) = 18`.
 pub(crate) const REACH: usize = 18;
 
+/// Largest row stride (pixels) the steered offsets handle in `i32` (`REACH` rows of it).
+pub(crate) const MAX_STRIDE: usize = 1 << 26;
+
 /// The pattern as two coordinate arrays (structure of arrays, so that steering all 512
 /// points is one vectorised loop), and the per-keypoint offset scratch.
 #[derive(Debug)]
 pub(crate) struct SteeredBrief {
     px: [f32; 512],
     py: [f32; 512],
-    offsets: [isize; 512],
+    offsets: [i32; 512],
 }
 
 impl Default for SteeredBrief {
@@ -67,11 +70,12 @@ impl SteeredBrief {
                 && y + REACH < smoothed.height()
         );
         let (s, c) = angle.sin_cos();
-        let stride = smoothed.stride() as isize;
+        // The extractor only passes images with strides below `MAX_STRIDE`.
+        let stride = smoothed.stride() as i32;
         steer(&self.px, &self.py, s, c, stride, &mut self.offsets);
         let data = smoothed.as_slice();
         let centre = (y * smoothed.stride() + x) as isize;
-        let at = |k: usize| data[(centre + self.offsets[k]) as usize];
+        let at = |k: usize| data[(centre + self.offsets[k] as isize) as usize];
         let mut desc = [0u64; 4];
         for (w, word) in desc.iter_mut().enumerate() {
             let mut bits = 0u64;
@@ -88,10 +92,11 @@ impl SteeredBrief {
 avx2_dispatch! {
     /// Flat offsets of the pattern points rotated by the angle of sine `s`, cosine `c`:
     /// column `x c - y s`, row `x s + y c`, each rounded to the nearest pixel.
-    fn steer(px: &[f32; 512], py: &[f32; 512], s: f32, c: f32, stride: isize, out: &mut [isize; 512]) {
+    /// `i32` offsets: 8 per AVX2 multiply, where `isize` would need emulated 64-bit ones.
+    fn steer(px: &[f32; 512], py: &[f32; 512], s: f32, c: f32, stride: i32, out: &mut [i32; 512]) {
         for i in 0..512 {
-            let dx = round_small(px[i] * c - py[i] * s) as isize;
-            let dy = round_small(px[i] * s + py[i] * c) as isize;
+            let dx = round_small(px[i] * c - py[i] * s);
+            let dy = round_small(px[i] * s + py[i] * c);
             out[i] = dy * stride + dx;
         }
     }

@@ -2,7 +2,7 @@
 //! distribution under a per-level budget, orientation, steered BRIEF, depth lookup.
 
 use crate::blur::GaussianBlur;
-use crate::brief::{REACH, SteeredBrief};
+use crate::brief::{MAX_STRIDE, REACH, SteeredBrief};
 use crate::config::{OrbConfig, OrbConfigError};
 use crate::distribute::Distributor;
 use crate::fast::{self, Corner, Rect};
@@ -139,8 +139,8 @@ impl OrbExtractor {
     /// same size as `gray`), each keypoint gets the depth at its rounded pixel, or else at
     /// the nearest valid 3x3 neighbour, 0 when none is in the configured range.
     ///
-    /// An image too small for one patch (under 39 pixels a side), empty or without
-    /// texture gives an empty set.
+    /// An image too small for one patch (under 39 pixels a side), empty, without texture
+    /// or with an absurd row stride (over 2^26 pixels) gives an empty set.
     ///
     /// # Errors
     /// [`OrbError::DepthSize`] when `depth` does not have the size of `gray`.
@@ -161,6 +161,9 @@ impl OrbExtractor {
                 depth_width: d.width(),
                 depth_height: d.height(),
             });
+        }
+        if gray.stride() > MAX_STRIDE {
+            return Ok(());
         }
         let t0 = Instant::now();
         let levels = self.pyramid.build(gray, &self.scales, MIN_LEVEL_SIDE);
