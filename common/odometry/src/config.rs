@@ -1,0 +1,147 @@
+//! Parameters of the odometry: `[tracking]`, `[keyframes]`, `[mapping]` tables and the
+//! ablation switches.
+
+use crate::matching::{LineMatchConfig, PointMatchConfig};
+use gfs_optim::BaConfig;
+use serde::Deserialize;
+
+/// Everything the odometry is configured by.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OdometryConfig {
+    /// Tracking thresholds.
+    pub tracking: TrackingConfig,
+    /// Keyframe selection and culling.
+    pub keyframes: KeyframeConfig,
+    /// Local mapping and local BA.
+    pub mapping: MappingConfig,
+}
+
+/// `[tracking]`: frame-to-map tracking.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrackingConfig {
+    /// Use line features in tracking and mapping (ablation switch). Default true.
+    pub use_lines: bool,
+    /// Use the Manhattan axes (ablation switch). Default true.
+    pub use_manhattan: bool,
+    /// Point matching thresholds.
+    pub points: PointMatchConfig,
+    /// Line matching thresholds.
+    pub lines: LineMatchConfig,
+    /// Inliers (points + lines) below which a tracking step has failed. Default 25
+    /// (ORB-SLAM2 asks 30 points after local-map tracking).
+    pub min_inliers: usize,
+    /// Inliers below which a tracked frame is flagged degraded. Default 60.
+    pub degraded_inliers: usize,
+    /// Run the line extension search when fewer map lines than this matched. Default 15.
+    pub extension_search_below: usize,
+    /// Keyframes of the local map tracked against. Default 20.
+    pub local_keyframes: usize,
+    /// Consecutive untracked frames after which a new local map is started. Default 5.
+    pub frames_before_new_map: u32,
+    /// Keypoints with depth needed to start a map. Default 100.
+    pub min_initial_points: usize,
+    /// Depth below which a keypoint counts as close (ORB-SLAM2 `ThDepth`: 40 baselines of
+    /// a Kinect, 3.1 m). Close points get map points at keyframe creation.
+    pub close_depth_m: f32,
+}
+
+impl Default for TrackingConfig {
+    fn default() -> Self {
+        Self {
+            use_lines: true,
+            use_manhattan: true,
+            points: PointMatchConfig::default(),
+            lines: LineMatchConfig::default(),
+            min_inliers: 25,
+            degraded_inliers: 60,
+            extension_search_below: 15,
+            local_keyframes: 20,
+            frames_before_new_map: 5,
+            min_initial_points: 100,
+            close_depth_m: 3.1,
+        }
+    }
+}
+
+/// `[keyframes]`: selection and culling (paper "Keyframe Select and Filter").
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct KeyframeConfig {
+    /// A keyframe at least every this many frames while tracking is weak. Default 30.
+    pub max_frames: u32,
+    /// New keyframe when tracked points fall below this fraction of the reference
+    /// keyframe's. Default 0.75 (ORB-SLAM2, RGB-D).
+    pub point_ratio: f32,
+    /// New keyframe when tracked lines fall below this fraction of the reference
+    /// keyframe's (lines are less stable after homogenisation, so the threshold is
+    /// lower than for points). Default 0.5.
+    pub line_ratio: f32,
+    /// A keyframe is redundant when this fraction of its points is seen by at least
+    /// `redundant_observers` other keyframes... Default 0.9 (ORB-SLAM2).
+    pub redundant_point_fraction: f32,
+    /// ... and this fraction of its lines too. Default 0.8.
+    pub redundant_line_fraction: f32,
+    /// Other keyframes that must see a landmark for it to count as redundant. Default 3.
+    pub redundant_observers: usize,
+    /// Keyframes kept in memory; the oldest beyond the local window are dropped so
+    /// that memory and time stay flat. Default 60.
+    pub max_keyframes: usize,
+}
+
+impl Default for KeyframeConfig {
+    fn default() -> Self {
+        Self {
+            max_frames: 30,
+            point_ratio: 0.75,
+            line_ratio: 0.5,
+            redundant_point_fraction: 0.9,
+            redundant_line_fraction: 0.8,
+            redundant_observers: 3,
+            max_keyframes: 60,
+        }
+    }
+}
+
+/// `[mapping]`: landmark creation and local BA.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MappingConfig {
+    /// Run the local BA after each keyframe. Default true.
+    pub local_ba: bool,
+    /// Covisible keyframes optimised with a new keyframe. Default 10.
+    pub ba_keyframes: usize,
+    /// Keyframes held fixed around the optimised ones (at most). Default 10.
+    pub ba_fixed_keyframes: usize,
+    /// At least this many closest keypoints get map points at keyframe creation, even
+    /// beyond `close_depth_m`. Default 100 (ORB-SLAM2).
+    pub min_new_points: usize,
+    /// Angle under which two map lines count as parallel / perpendicular for the
+    /// structural constraints, degrees. Default 3.
+    pub structural_angle_deg: f64,
+    /// Angle under which a map line is tied to a Manhattan axis, degrees. Default 6.
+    pub manhattan_angle_deg: f64,
+    /// Most parallel / perpendicular pairs put into one local BA. Default 2000.
+    pub max_structural_pairs: usize,
+    /// Largest Hamming distance for fusing duplicate map points. Default 50.
+    pub fuse_max_distance: u32,
+    /// The local BA's iterations, robust thresholds and term weights.
+    pub ba: BaConfig,
+}
+
+impl Default for MappingConfig {
+    fn default() -> Self {
+        Self {
+            local_ba: true,
+            ba_keyframes: 10,
+            ba_fixed_keyframes: 10,
+            min_new_points: 100,
+            structural_angle_deg: 3.0,
+            manhattan_angle_deg: 6.0,
+            max_structural_pairs: 2000,
+            fuse_max_distance: 50,
+            ba: BaConfig::default(),
+        }
+    }
+}

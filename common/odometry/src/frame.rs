@@ -1,0 +1,79 @@
+//! The tracker's input: everything the front-end stages extracted from one frame.
+
+use gfs_core::ids::FrameId;
+use gfs_lines::{DetectedLine, Line3};
+use gfs_planes::ManhattanAxes;
+use gfs_points::KeyPoint;
+
+/// 256-bit binary descriptors (ORB rBRIEF and binary LBD share the layout) and their
+/// distance.
+pub use gfs_points::{Descriptor, hamming};
+
+/// Features of one frame, as the points, lines and planes stages deliver them.
+/// Parallel vectors: `point_descriptors[i]` describes `keypoints[i]`, and
+/// `line_descriptors[j]`, `lines3d[j]`, `line_axes[j]` belong to `lines[j]`.
+#[derive(Clone, Debug, Default)]
+pub struct FrameFeatures {
+    /// Input frame id.
+    pub id: FrameId,
+    /// Capture time, seconds.
+    pub timestamp: f64,
+    /// ORB keypoints in undistorted pixels, with depth (0 = none).
+    pub keypoints: Vec<KeyPoint>,
+    /// rBRIEF descriptors of `keypoints`.
+    pub point_descriptors: Vec<Descriptor>,
+    /// Homogenised line segments in undistorted pixels.
+    pub lines: Vec<DetectedLine>,
+    /// LBD descriptors of `lines`.
+    pub line_descriptors: Vec<Descriptor>,
+    /// 3D lines in the camera frame (invalid where depth did not support one).
+    pub lines3d: Vec<Line3>,
+    /// Manhattan axes of the frame, in the camera frame, if the scene showed structure.
+    pub manhattan: Option<ManhattanAxes>,
+}
+
+impl FrameFeatures {
+    /// Checks that the parallel vectors have matching lengths.
+    ///
+    /// # Errors
+    /// [`FeatureError`] naming the frame and the vectors that disagree.
+    pub fn validate(&self) -> Result<(), FeatureError> {
+        let check = |what: &'static str, got: usize, want: usize| {
+            if got == want {
+                Ok(())
+            } else {
+                Err(FeatureError {
+                    frame: self.id,
+                    what,
+                    got,
+                    want,
+                })
+            }
+        };
+        check(
+            "point_descriptors",
+            self.point_descriptors.len(),
+            self.keypoints.len(),
+        )?;
+        check(
+            "line_descriptors",
+            self.line_descriptors.len(),
+            self.lines.len(),
+        )?;
+        check("lines3d", self.lines3d.len(), self.lines.len())
+    }
+}
+
+/// Feature vectors of a frame that do not line up.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+#[error("frame {frame}: {what} has {got} entries, expected {want}")]
+pub struct FeatureError {
+    /// The frame.
+    pub frame: FrameId,
+    /// The vector that has the wrong length.
+    pub what: &'static str,
+    /// Its length.
+    pub got: usize,
+    /// The length it should have.
+    pub want: usize,
+}

@@ -1,0 +1,152 @@
+//! The whole front end in one process: ORB points, lines, planes and Manhattan axes of a
+//! frame, chained as the points / lines / planes services chain them in the pipeline.
+//! This is the `inline` mode's front end and the tests' way to make [`FrameFeatures`].
+
+use crate::frame::FrameFeatures;
+use gfs_core::ImageView;
+use gfs_core::camera::PinholeCamera;
+use gfs_core::ids::FrameId;
+use gfs_lines::extractor::{LineConfig, LineExtractor, LineFeatures};
+use gfs_planes::{ManhattanEstimator, Plane, PlaneConfig, PlaneExtractor};
+use gfs_points::{OrbConfig, OrbExtractor, OrbFeatures};
+use nalgebra::{Rotation3, Vector3};
+use std::time::{Duration, Instant};
+
+/// A front-end stage refused its config or a frame (bad sizes).
+#[derive(Debug, thiserror::Error)]
+pub enum FrontendError {
+    /// The ORB extractor refused the config or the frame.
+    #[error("points: {0}")]
+    Points(String),
+    /// The plane extractor refused the config or the frame.
+    #[error("planes: {0}")]
+    Planes(String),
+}
+
+/// Time spent per stage on the last frame.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrontendTimings {
+    /// ORB extraction.
+    pub points: Duration,
+    /// Line detection, joining, homogenisation, LBD and 3D lines.
+    pub lines: Duration,
+    /// Plane normals, BFS planes and Manhattan axes.
+    pub planes: Duration,
+}
+
+/// Points, lines and planes extractors with their reusable scratch.
+pub struct Frontend {
+    camera: PinholeCamera,
+    use_lines: bool,
+    use_manhattan: bool,
+    orb: OrbExtractor,
+    orb_out: OrbFeatures,
+    lines: LineExtractor,
+    line_out: LineFeatures,
+    planes: PlaneExtractor,
+    plane_out: Vec<Plane>,
+    manhattan: ManhattanEstimator,
+    directions: Vec<Vector3<f32>>,
+    weights: Vec<f32>,
+    timings: FrontendTimings,
+}
+
+impl Frontend {
+    /// Builds the three extractors. `use_lines` / `use_manhattan` are the ablation
+    /// switches: a switched-off stage is not run and contributes nothing.
+    ///
+    /// # Errors
+    /// [`FrontendError`] when a stage's config is invalid.
+    pub fn new(
+        camera: PinholeCamera,
+        points: &OrbConfig,
+        lines: &LineConfig,
+        planes: &PlaneConfig,
+        use_lines: bool,
+        use_manhattan: bool,
+    ) -> Result<Self, FrontendError> {
+        Ok(Self {
+            orb: OrbExtractor::new(points.clone())
+                .map_err(|e| FrontendError::Points(e.to_string()))?,
+            lines: LineExtractor::new(lines.clone()),
+            planes: PlaneExtractor::new(planes)
+                .map_err(|e| FrontendError::Planes(e.to_string()))?,
+            manhattan: ManhattanEstimator::new(planes)
+                .map_err(|e| FrontendError::Planes(e.to_string()))?,
+            orb_out: OrbFeatures::default(),
+            line_out: LineFeatures::default(),
+            plane_out: Vec::new(),
+            directions: Vec::new(),
+            weights: Vec::new(),
+            timings: FrontendTimings::default(),
+            camera,
+            use_lines,
+            use_manhattan,
+        })
+    }
+
+    /// Stage timings of the last [`Self::extract`].
+    pub fn timings(&self) -> &FrontendTimings {
+        &self.timings
+    }
+
+    /// Extracts the features of one undistorted frame. `predicted_rotation`
+    /// (`current_from_previous`) keeps the Manhattan axes' identity across frames.
+    ///
+    /// # Errors
+    /// [`FrontendError`] when the images do not have the camera's size.
+    pub fn extract(
+        &mut self,
+        id: FrameId,
+        timestamp: f64,
+        gray: ImageView<'_, u8>,
+        depth: ImageView<'_, f32>,
+        predicted_rotation: Option<&Rotation3<f64>>,
+    ) -> Result<FrameFeatures, FrontendError> {
+        let start = Instant::now();
+        self.orb
+            .extract(gray, Some(depth), &mut self.orb_out)
+            .map_err(|e| FrontendError::Points(e.to_string()))?;
+        let points_done = Instant::now();
+        self.line_out.clear();
+        if self.use_lines {
+            self.lines
+                .extract(&gray, &depth, &self.camera, &mut self.line_out);
+        }
+        let lines_done = Instant::now();
+        let mut manhattan = None;
+        if self.use_manhattan {
+            self.planes
+                .extract(&depth, &self.camera, &mut self.plane_out)
+                .map_err(|e| FrontendError::Planes(e.to_string()))?;
+            self.directions.clear();
+            self.weights.clear();
+            for l in self.line_out.lines3d.iter().filter(|l| l.is_valid()) {
+                let d = Vector3::from(l.end) - Vector3::from(l.start);
+                self.weights.push(d.norm());
+                self.directions.push(d);
+            }
+            manhattan = self.manhattan.estimate(
+                &self.plane_out,
+                &self.directions,
+                &self.weights,
+                predicted_rotation,
+            );
+        }
+        self.timings = FrontendTimings {
+            points: points_done - start,
+            lines: lines_done - points_done,
+            planes: lines_done.elapsed(),
+        };
+        Ok(FrameFeatures {
+            id,
+            timestamp,
+            keypoints: self.orb_out.keypoints.clone(),
+            point_descriptors: self.orb_out.descriptors.clone(),
+            lines: self.line_out.lines.clone(),
+            line_descriptors: self.line_out.descriptors.clone(),
+            lines3d: self.line_out.lines3d.clone(),
+            manhattan,
+        })
+    }
+}

@@ -1,0 +1,81 @@
+//! When a frame becomes a keyframe (paper "Keyframe Select and Filter", after ORB-SLAM2's
+//! `NeedNewKeyFrame` for RGB-D): when the tracked points **or** lines fall well below
+//! the reference keyframe's, or close structure is no longer covered by the map.
+
+use crate::config::KeyframeConfig;
+use crate::map::Map;
+use crate::tracker::TrackedFrame;
+use gfs_core::ids::KeyFrameId;
+
+/// Close keypoints the map must cover (ORB-SLAM2: fewer than 100 tracked close points
+/// while more than 70 close ones are untracked asks for a keyframe).
+const CLOSE_TRACKED_MIN: usize = 100;
+const CLOSE_UNTRACKED_MAX: usize = 70;
+/// A keyframe needs at least this many tracked points to anchor the map (ORB-SLAM2: 15).
+const MIN_INLIERS_FOR_KEYFRAME: usize = 15;
+
+/// Decides whether `frame` should become a keyframe.
+pub fn needs_keyframe(
+    config: &KeyframeConfig,
+    map: &Map,
+    frame: &TrackedFrame,
+    reference: Option<KeyFrameId>,
+    frames_since_keyframe: u32,
+    close_depth_m: f32,
+) -> bool {
+    if !frame.status.is_tracked() {
+        return false;
+    }
+    let Some(reference) = reference.and_then(|id| map.keyframe(id)) else {
+        return true;
+    };
+    // Points of a single keyframe have one observation each: count them all then.
+    let min_observations = match map.keyframe_count() {
+        0 | 1 => 1,
+        2 => 2,
+        _ => 3,
+    };
+    let reference_points = reference
+        .point_ids
+        .iter()
+        .flatten()
+        .filter(|id| {
+            map.point(**id)
+                .is_some_and(|p| p.observations.len() >= min_observations)
+        })
+        .count();
+    let reference_lines = reference
+        .line_ids
+        .iter()
+        .flatten()
+        .filter(|id| map.line(**id).is_some())
+        .count();
+
+    let (mut close_tracked, mut close_untracked) = (0, 0);
+    for (kp, id) in frame.features.keypoints.iter().zip(&frame.point_ids) {
+        if kp.depth > 0.0 && kp.depth < close_depth_m {
+            if id.is_some() {
+                close_tracked += 1;
+            } else {
+                close_untracked += 1;
+            }
+        }
+    }
+    let need_close = close_tracked < CLOSE_TRACKED_MIN && close_untracked > CLOSE_UNTRACKED_MAX;
+    let point_ratio = if map.keyframe_count() < 2 {
+        0.4
+    } else {
+        config.point_ratio
+    };
+    let points_low = (frame.inliers.points as f32) < reference_points as f32 * point_ratio;
+    let lines_low = reference_lines >= 10
+        && (frame.inliers.lines as f32) < reference_lines as f32 * config.line_ratio;
+
+    // The in-process mapper is idle whenever the tracker asks (ORB-SLAM2's c1b), so the
+    // remaining condition is the coverage one (c2), with lines beside points.
+    let timeout = frames_since_keyframe >= config.max_frames;
+    let weak = (frame.inliers.points as f32) < reference_points as f32 * 0.25;
+    let c2 =
+        (points_low || lines_low || need_close) && frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME;
+    c2 || (timeout && weak && frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME)
+}

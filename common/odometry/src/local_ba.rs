@@ -1,0 +1,322 @@
+//! Assembles the local BA of a new keyframe from the map (paper eq. 10): the covisible
+//! keyframes `K_c` and their points and lines are optimised, the other keyframes that
+//! see those landmarks (`K_f`) are held fixed; structural pairs (eq. 11-13) and
+//! Manhattan associations (eq. 14) are added for the lines. The result is written back
+//! and outlier observations are unlinked.
+
+use crate::config::MappingConfig;
+use crate::manhattan::WorldManhattan;
+use crate::map::{IdMap, Map};
+use crate::matching::ScalePyramid;
+use gfs_core::camera::PinholeCamera;
+use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
+use gfs_optim::{
+    BaLineObservation, BaManhattan, BaPointObservation, BaPose, BaProblem, BaResult,
+    LocalBundleAdjuster as Solver,
+};
+use nalgebra::{Point3, Vector2, Vector3};
+
+/// Reusable state of the local BA.
+#[derive(Default)]
+pub struct LocalBundleAdjuster {
+    solver: Solver,
+    result: BaResult,
+    pose_ids: Vec<KeyFrameId>,
+    point_ids: Vec<MapPointId>,
+    line_ids: Vec<MapLineId>,
+}
+
+impl LocalBundleAdjuster {
+    /// Optimises the neighbourhood of keyframe `kf` in `map`. Keypoint depths below
+    /// `close_depth_m` add the RGB-D depth error.
+    #[allow(clippy::too_many_arguments)]
+    pub fn run(
+        &mut self,
+        map: &mut Map,
+        kf: KeyFrameId,
+        camera: &PinholeCamera,
+        scale: &ScalePyramid,
+        config: &MappingConfig,
+        manhattan: &WorldManhattan,
+        use_lines: bool,
+        close_depth_m: f32,
+    ) {
+        let Some(mut problem) = self.assemble(
+            map,
+            kf,
+            camera,
+            scale,
+            config,
+            manhattan,
+            use_lines,
+            close_depth_m,
+        ) else {
+            return;
+        };
+        if let Err(e) = self
+            .solver
+            .optimize(&mut problem, &config.ba, &mut self.result)
+        {
+            tracing::warn!(keyframe = %kf, "local BA skipped: {e}");
+            return;
+        }
+        let inliers = &self.result.inliers;
+        for (pose, id) in problem.poses.iter().zip(&self.pose_ids) {
+            if let (false, Some(keyframe)) = (pose.fixed, map.keyframe_mut(*id)) {
+                keyframe.camera_from_world = pose.camera_from_world;
+            }
+        }
+        for (position, id) in problem.points.iter().zip(&self.point_ids) {
+            if let Some(p) = map.point_mut(*id) {
+                p.position = Point3::from(*position);
+            }
+        }
+        for (endpoints, id) in problem.lines.iter().zip(&self.line_ids) {
+            let axis_angle = config.manhattan_angle_deg.to_radians();
+            if let Some(l) = map.line_mut(*id) {
+                l.start = Point3::from(endpoints[0]);
+                l.end = Point3::from(endpoints[1]);
+                l.axis = manhattan.axis_of(&(l.end - l.start), axis_angle);
+            }
+        }
+        for (obs, inlier) in problem
+            .point_observations
+            .iter()
+            .zip(&inliers.point_observations)
+        {
+            if !inlier {
+                map.remove_point_observation(self.point_ids[obs.point], self.pose_ids[obs.pose]);
+            }
+        }
+        for (obs, inlier) in problem
+            .line_observations
+            .iter()
+            .zip(&inliers.line_observations)
+        {
+            if !inlier {
+                map.remove_line_observation(self.line_ids[obs.line], self.pose_ids[obs.pose]);
+            }
+        }
+        for id in &self.point_ids {
+            map.update_point_geometry(*id, scale.scale_factor, scale.levels);
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn assemble(
+        &mut self,
+        map: &Map,
+        kf: KeyFrameId,
+        camera: &PinholeCamera,
+        scale: &ScalePyramid,
+        config: &MappingConfig,
+        manhattan: &WorldManhattan,
+        use_lines: bool,
+        close_depth_m: f32,
+    ) -> Option<BaProblem> {
+        let mut problem = BaProblem::new(*camera);
+        self.pose_ids.clear();
+        self.point_ids.clear();
+        self.line_ids.clear();
+        let mut pose_index: IdMap<KeyFrameId, usize> = IdMap::default();
+        let local: Vec<KeyFrameId> = std::iter::once(kf)
+            .chain(map.covisible(kf, 1).into_iter().map(|(k, _)| k))
+            .take(config.ba_keyframes.max(1))
+            .collect();
+        for id in &local {
+            let keyframe = map.keyframe(*id)?;
+            pose_index.insert(*id, problem.poses.len());
+            problem.poses.push(BaPose {
+                camera_from_world: keyframe.camera_from_world,
+                fixed: false,
+            });
+            self.pose_ids.push(*id);
+        }
+        let mut point_index: IdMap<MapPointId, usize> = IdMap::default();
+        let mut line_index: IdMap<MapLineId, usize> = IdMap::default();
+        for id in &local {
+            let keyframe = map.keyframe(*id)?;
+            for pid in keyframe.point_ids.iter().flatten() {
+                if let (false, Some(p)) = (point_index.contains_key(pid), map.point(*pid)) {
+                    point_index.insert(*pid, problem.points.len());
+                    problem.points.push(p.position.coords);
+                    self.point_ids.push(*pid);
+                }
+            }
+            if use_lines {
+                for lid in keyframe.line_ids.iter().flatten() {
+                    if let (false, Some(l)) = (line_index.contains_key(lid), map.line(*lid)) {
+                        line_index.insert(*lid, problem.lines.len());
+                        problem.lines.push([l.start.coords, l.end.coords]);
+                        self.line_ids.push(*lid);
+                    }
+                }
+            }
+        }
+        self.add_fixed_keyframes(map, config, &mut problem, &mut pose_index);
+        for (k, pid) in self.point_ids.iter().enumerate() {
+            let Some(p) = map.point(*pid) else { continue };
+            for (obs_kf, index) in &p.observations {
+                let (Some(&pose), Some(keyframe)) = (pose_index.get(obs_kf), map.keyframe(*obs_kf))
+                else {
+                    continue;
+                };
+                let Some(kp) = keyframe.features.keypoints.get(*index as usize) else {
+                    continue;
+                };
+                problem.point_observations.push(BaPointObservation {
+                    pose,
+                    point: k,
+                    uv: Vector2::new(f64::from(kp.u), f64::from(kp.v)),
+                    inv_sigma2: scale.inv_sigma2(kp.level),
+                    depth: if kp.depth < close_depth_m {
+                        f64::from(kp.depth)
+                    } else {
+                        0.0
+                    },
+                });
+            }
+        }
+        for (k, lid) in self.line_ids.iter().enumerate() {
+            let Some(l) = map.line(*lid) else { continue };
+            for (obs_kf, index) in &l.observations {
+                let (Some(&pose), Some(keyframe)) = (pose_index.get(obs_kf), map.keyframe(*obs_kf))
+                else {
+                    continue;
+                };
+                let Some(observed) = keyframe.features.lines.get(*index as usize) else {
+                    continue;
+                };
+                let [a, b, c] = observed.segment.line_coefficients();
+                if a == 0.0 && b == 0.0 {
+                    continue;
+                }
+                problem.line_observations.push(BaLineObservation {
+                    pose,
+                    line: k,
+                    coeffs: Vector3::new(f64::from(a), f64::from(b), f64::from(c)),
+                    inv_sigma2: 1.0,
+                });
+            }
+            if let Some(direction) = l.axis.and_then(|a| manhattan.axis(a)) {
+                problem.manhattan.push(BaManhattan {
+                    line: k,
+                    axis: direction,
+                });
+            }
+        }
+        self.add_structural_pairs(map, config, &mut problem);
+        if problem.poses.iter().all(|p| p.fixed) || problem.point_observations.is_empty() {
+            return None;
+        }
+        Some(problem)
+    }
+
+    /// Keyframes outside the local set that see its landmarks, most shared first, are
+    /// held fixed; without any, the oldest local keyframe fixes the gauge.
+    fn add_fixed_keyframes(
+        &mut self,
+        map: &Map,
+        config: &MappingConfig,
+        problem: &mut BaProblem,
+        pose_index: &mut IdMap<KeyFrameId, usize>,
+    ) {
+        let mut shared: IdMap<KeyFrameId, u32> = IdMap::default();
+        let point_obs = self
+            .point_ids
+            .iter()
+            .filter_map(|id| map.point(*id))
+            .map(|p| &p.observations);
+        let line_obs = self
+            .line_ids
+            .iter()
+            .filter_map(|id| map.line(*id))
+            .map(|l| &l.observations);
+        for observations in point_obs.chain(line_obs) {
+            for (kf, _) in observations {
+                if !pose_index.contains_key(kf) {
+                    *shared.entry(*kf).or_insert(0) += 1;
+                }
+            }
+        }
+        let mut ranked: Vec<_> = shared.into_iter().collect();
+        ranked.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        for (kf, _) in ranked.into_iter().take(config.ba_fixed_keyframes) {
+            let Some(keyframe) = map.keyframe(kf) else {
+                continue;
+            };
+            pose_index.insert(kf, problem.poses.len());
+            problem.poses.push(BaPose {
+                camera_from_world: keyframe.camera_from_world,
+                fixed: true,
+            });
+            self.pose_ids.push(kf);
+        }
+        if !problem.poses.iter().any(|p| p.fixed)
+            && let Some(oldest) = self
+                .pose_ids
+                .iter()
+                .enumerate()
+                .min_by_key(|(_, id)| **id)
+                .map(|(i, _)| i)
+        {
+            problem.poses[oldest].fixed = true;
+        }
+    }
+
+    /// Parallel and perpendicular pairs among lines seen by a same local keyframe
+    /// (paper eq. 11). Pairs of two lines tied to Manhattan axes are left to the
+    /// Manhattan terms, which already imply them.
+    fn add_structural_pairs(&self, map: &Map, config: &MappingConfig, problem: &mut BaProblem) {
+        if problem.lines.len() < 2 || config.max_structural_pairs == 0 {
+            return;
+        }
+        let mut line_index: IdMap<MapLineId, usize> = IdMap::default();
+        for (k, id) in self.line_ids.iter().enumerate() {
+            line_index.insert(*id, k);
+        }
+        let directions: Vec<Option<Vector3<f64>>> = problem
+            .lines
+            .iter()
+            .map(|[s, e]| (e - s).try_normalize(1e-9))
+            .collect();
+        let has_axis: Vec<bool> = self
+            .line_ids
+            .iter()
+            .map(|id| map.line(*id).is_some_and(|l| l.axis.is_some()))
+            .collect();
+        let tolerance = config.structural_angle_deg.to_radians().sin();
+        let mut seen = std::collections::BTreeSet::new();
+        let mut members = Vec::new();
+        for kf in self.pose_ids.iter().filter_map(|id| map.keyframe(*id)) {
+            members.clear();
+            members.extend(
+                kf.line_ids
+                    .iter()
+                    .flatten()
+                    .filter_map(|id| line_index.get(id).copied()),
+            );
+            for (a, &i) in members.iter().enumerate() {
+                for &j in &members[a + 1..] {
+                    if problem.parallel.len() + problem.perpendicular.len()
+                        >= config.max_structural_pairs
+                    {
+                        return;
+                    }
+                    let (Some(di), Some(dj)) = (directions[i], directions[j]) else {
+                        continue;
+                    };
+                    if (has_axis[i] && has_axis[j]) || !seen.insert((i.min(j), i.max(j))) {
+                        continue;
+                    }
+                    let cos = di.dot(&dj).abs();
+                    if di.cross(&dj).norm() < tolerance {
+                        problem.parallel.push((i, j));
+                    } else if cos < tolerance {
+                        problem.perpendicular.push((i, j));
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,82 @@
+//! The Manhattan axes of the world: set from the first confident frame observation
+//! (camera-frame axes rotated into the world), then refined by the following ones.
+//! Map lines are tied to these axes (paper eq. 14).
+
+use gfs_planes::ManhattanAxes;
+use nalgebra::{Isometry3, Matrix3, Rotation3, Vector3};
+
+/// Confidence a frame's axes need to found the world axes.
+const MIN_CONFIDENCE: f32 = 0.5;
+/// A camera axis refines the world axis it is within this angle of (radians, ~10 deg).
+const MATCH_COS: f64 = 0.985;
+/// Weight of a new observation in the running mean of an axis.
+const REFINE_RATE: f64 = 0.05;
+
+/// The world Manhattan frame, if the scene has shown one.
+#[derive(Clone, Debug, Default)]
+pub struct WorldManhattan {
+    axes: Option<Rotation3<f64>>,
+    enabled: bool,
+}
+
+impl WorldManhattan {
+    /// A world frame that learns its axes when `enabled` (the MA ablation switch).
+    pub fn new(enabled: bool) -> Self {
+        Self {
+            axes: None,
+            enabled,
+        }
+    }
+
+    /// The world axes (columns), once known.
+    pub fn axes(&self) -> Option<&Rotation3<f64>> {
+        self.axes.as_ref()
+    }
+
+    /// Takes in the axes a frame saw (camera frame), with that frame's pose.
+    pub fn observe(&mut self, world_from_camera: &Isometry3<f64>, observed: &ManhattanAxes) {
+        if !self.enabled || observed.confidence < MIN_CONFIDENCE {
+            return;
+        }
+        let rotation = world_from_camera.rotation.to_rotation_matrix();
+        let in_world = rotation * observed.rotation;
+        let Some(axes) = &mut self.axes else {
+            if observed.observed.iter().filter(|o| **o).count() >= 2 {
+                self.axes = Some(in_world);
+            }
+            return;
+        };
+        let mut m: Matrix3<f64> = *axes.matrix();
+        for (k, seen) in observed.observed.iter().enumerate() {
+            if !seen {
+                continue;
+            }
+            let dir = in_world.matrix().column(k).into_owned();
+            for mut column in m.column_iter_mut() {
+                let dot = column.dot(&dir);
+                if dot.abs() > MATCH_COS {
+                    let blended = column.clone_owned() * (1.0 - REFINE_RATE)
+                        + dir * (dot.signum() * REFINE_RATE);
+                    column.copy_from(&blended);
+                }
+            }
+        }
+        *axes = Rotation3::from_matrix(&m);
+    }
+
+    /// The axis (0, 1, 2) that `direction` (world) is parallel to within `max_angle`
+    /// radians, if the axes are known.
+    pub fn axis_of(&self, direction: &Vector3<f64>, max_angle: f64) -> Option<u8> {
+        let axes = self.axes.as_ref()?;
+        let d = direction.try_normalize(1e-12)?;
+        let min_cos = max_angle.cos();
+        (0..3u8).find(|&k| axes.matrix().column(k as usize).dot(&d).abs() >= min_cos)
+    }
+
+    /// The unit world direction of axis `k`.
+    pub fn axis(&self, k: u8) -> Option<Vector3<f64>> {
+        self.axes
+            .as_ref()
+            .map(|a| a.matrix().column(k as usize).into_owned())
+    }
+}

@@ -1,0 +1,37 @@
+//! A keyframe: a frame kept in the map with its pose, features and landmark links.
+
+use crate::frame::FrameFeatures;
+use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
+use nalgebra::Isometry3;
+
+/// A frame kept in the map.
+#[derive(Clone, Debug)]
+pub struct KeyFrame {
+    /// Its id.
+    pub id: KeyFrameId,
+    /// `camera_from_world` (T_cw), refined by the local BA.
+    pub camera_from_world: Isometry3<f64>,
+    /// The features of the frame.
+    pub features: FrameFeatures,
+    /// For each keypoint, the map point it observes.
+    pub point_ids: Vec<Option<MapPointId>>,
+    /// For each line, the map line it observes.
+    pub line_ids: Vec<Option<MapLineId>>,
+}
+
+impl KeyFrame {
+    /// `world_from_camera` (T_wc).
+    pub fn world_from_camera(&self) -> Isometry3<f64> {
+        self.camera_from_world.inverse()
+    }
+
+    /// Number of keypoints linked to a map point.
+    pub fn tracked_points(&self) -> usize {
+        self.point_ids.iter().flatten().count()
+    }
+
+    /// Number of lines linked to a map line.
+    pub fn tracked_lines(&self) -> usize {
+        self.line_ids.iter().flatten().count()
+    }
+}

@@ -1,0 +1,359 @@
+//! Local mapping (paper section III-C): a new keyframe is inserted, its unmatched close
+//! keypoints and valid 3D lines become landmarks, duplicates are fused, the local BA
+//! refines the covisible keyframes and their landmarks with reprojection, structural and
+//! Manhattan terms, and redundant keyframes are culled (on points **and** lines).
+
+use crate::config::{KeyframeConfig, MappingConfig};
+use crate::frame::hamming;
+use crate::local_ba::LocalBundleAdjuster;
+use crate::manhattan::WorldManhattan;
+use crate::map::{KeyFrame, Map, MapLine, MapPoint};
+use crate::matching::ScalePyramid;
+use crate::tracker::TrackedFrame;
+use gfs_core::camera::PinholeCamera;
+use gfs_core::ids::{KeyFrameId, MapPointId};
+use nalgebra::Point3;
+
+/// Keyframes after which a recently created point must be seen by this many keyframes.
+const RECENT_POINT_KEYFRAMES: u64 = 2;
+const RECENT_POINT_MIN_OBSERVATIONS: usize = 3;
+/// Found/visible ratio under which a recent landmark is dropped (ORB-SLAM2: 0.25).
+const MIN_FOUND_RATIO: f64 = 0.25;
+/// Search radius when fusing, pixels at level 0 (ORB-SLAM2 `Fuse`: 3 x scale).
+const FUSE_RADIUS_PX: f64 = 3.0;
+/// Covisible keyframes whose points are fused into a new keyframe.
+const FUSE_NEIGHBOURS: usize = 10;
+
+/// Owns the map-building steps; the map itself is passed in.
+pub struct Mapper {
+    config: MappingConfig,
+    keyframes: KeyframeConfig,
+    camera: PinholeCamera,
+    scale: ScalePyramid,
+    close_depth_m: f32,
+    use_lines: bool,
+    recent_points: Vec<MapPointId>,
+    ba: LocalBundleAdjuster,
+    nearby: Vec<usize>,
+}
+
+impl Mapper {
+    /// A mapper for `camera`.
+    pub fn new(
+        config: MappingConfig,
+        keyframes: KeyframeConfig,
+        camera: PinholeCamera,
+        scale: ScalePyramid,
+        close_depth_m: f32,
+        use_lines: bool,
+    ) -> Self {
+        Self {
+            ba: LocalBundleAdjuster::default(),
+            recent_points: Vec::new(),
+            nearby: Vec::new(),
+            config,
+            keyframes,
+            camera,
+            scale,
+            close_depth_m,
+            use_lines,
+        }
+    }
+
+    /// Makes `frame` a keyframe of `map` and runs local mapping. Returns its id.
+    pub fn add_keyframe(
+        &mut self,
+        map: &mut Map,
+        frame: &TrackedFrame,
+        manhattan: &mut WorldManhattan,
+    ) -> KeyFrameId {
+        let keyframe = KeyFrame {
+            id: map.next_keyframe_id(),
+            camera_from_world: frame.camera_from_world,
+            features: frame.features.clone(),
+            point_ids: frame.point_ids.clone(),
+            line_ids: if self.use_lines {
+                frame.line_ids.clone()
+            } else {
+                vec![None; frame.line_ids.len()]
+            },
+        };
+        let kf = map.insert_keyframe(keyframe);
+        for id in frame.point_ids.iter().flatten() {
+            map.update_point_descriptor(*id);
+            map.update_point_geometry(*id, self.scale.scale_factor, self.scale.levels);
+        }
+        self.create_points(map, kf);
+        if self.use_lines {
+            self.create_lines(map, kf, manhattan);
+        }
+        self.cull_recent_points(map, kf);
+        self.fuse(map, kf);
+        if self.config.local_ba {
+            self.ba.run(
+                map,
+                kf,
+                &self.camera,
+                &self.scale,
+                &self.config,
+                manhattan,
+                self.use_lines,
+                self.close_depth_m,
+            );
+        }
+        self.cull_keyframes(map, kf);
+        self.bound_map(map, kf);
+        kf
+    }
+
+    /// New map points for unmatched keypoints with depth: all the close ones, and at
+    /// least the `min_new_points` closest (ORB-SLAM2 RGB-D `CreateNewKeyFrame`).
+    fn create_points(&mut self, map: &mut Map, kf: KeyFrameId) {
+        let Some(keyframe) = map.keyframe(kf) else {
+            return;
+        };
+        let world_from_camera = keyframe.world_from_camera();
+        let mut by_depth: Vec<(f32, usize)> = keyframe
+            .features
+            .keypoints
+            .iter()
+            .enumerate()
+            .filter(|(i, kp)| kp.depth > 0.0 && keyframe.point_ids[*i].is_none())
+            .map(|(i, kp)| (kp.depth, i))
+            .collect();
+        by_depth.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        let descriptors = keyframe.features.point_descriptors.clone();
+        let keypoints = keyframe.features.keypoints.clone();
+        let centre = world_from_camera.translation.vector;
+        for (n, (depth, i)) in by_depth.into_iter().enumerate() {
+            if depth > self.close_depth_m && n >= self.config.min_new_points {
+                break;
+            }
+            let kp = &keypoints[i];
+            let p_c = self
+                .camera
+                .back_project(f64::from(kp.u), f64::from(kp.v), f64::from(depth));
+            let position = world_from_camera * p_c;
+            let to_camera = centre - position.coords;
+            let distance = to_camera.norm();
+            let max_distance = distance * self.scale.factor(kp.level as u8);
+            let point = MapPoint {
+                position,
+                descriptor: descriptors[i],
+                observations: Vec::new(),
+                normal: to_camera / distance.max(1e-9),
+                max_distance,
+                min_distance: max_distance / self.scale.factor(self.scale.levels.saturating_sub(1)),
+                first_kf: kf,
+                visible: 1,
+                found: 1,
+            };
+            if let Some(id) = map.insert_point(point, kf, i) {
+                self.recent_points.push(id);
+            }
+        }
+    }
+
+    /// New map lines from the keyframe's unmatched valid 3D lines.
+    fn create_lines(&mut self, map: &mut Map, kf: KeyFrameId, manhattan: &WorldManhattan) {
+        let Some(keyframe) = map.keyframe(kf) else {
+            return;
+        };
+        let world_from_camera = keyframe.world_from_camera();
+        let mut new_lines = Vec::new();
+        for (j, line3) in keyframe.features.lines3d.iter().enumerate() {
+            if !line3.is_valid() || keyframe.line_ids[j].is_some() {
+                continue;
+            }
+            let start = world_from_camera * Point3::from(line3.start.map(f64::from));
+            let end = world_from_camera * Point3::from(line3.end.map(f64::from));
+            let descriptor = keyframe.features.line_descriptors[j];
+            new_lines.push((j, start, end, descriptor));
+        }
+        for (j, start, end, descriptor) in new_lines {
+            let axis =
+                manhattan.axis_of(&(end - start), self.config.manhattan_angle_deg.to_radians());
+            let line = MapLine {
+                start,
+                end,
+                descriptor,
+                observations: Vec::new(),
+                axis,
+                first_kf: kf,
+                visible: 1,
+                found: 1,
+            };
+            map.insert_line(line, kf, j);
+        }
+    }
+
+    /// Drops recent points that tracking rarely finds or that few keyframes confirm.
+    fn cull_recent_points(&mut self, map: &mut Map, current: KeyFrameId) {
+        let mut kept = Vec::with_capacity(self.recent_points.len());
+        for id in std::mem::take(&mut self.recent_points) {
+            let Some(p) = map.point(id) else { continue };
+            let age = current.0.saturating_sub(p.first_kf.0);
+            if p.found_ratio() < MIN_FOUND_RATIO
+                || (age >= RECENT_POINT_KEYFRAMES
+                    && p.observations.len() < RECENT_POINT_MIN_OBSERVATIONS)
+            {
+                map.remove_point(id);
+            } else if age < RECENT_POINT_KEYFRAMES + 1 {
+                kept.push(id);
+            }
+        }
+        self.recent_points = kept;
+        let bad_lines: Vec<_> = map
+            .line_ids()
+            .filter(|id| {
+                map.line(*id)
+                    .is_some_and(|l| l.visible >= 8 && l.found_ratio() < MIN_FOUND_RATIO)
+            })
+            .collect();
+        for id in bad_lines {
+            map.remove_line(id);
+        }
+    }
+
+    /// Projects the points of the covisible keyframes into the new one: a free keypoint
+    /// that matches gets the observation; one that already has a map point is merged with
+    /// it (the point with more observations survives).
+    fn fuse(&mut self, map: &mut Map, kf: KeyFrameId) {
+        let neighbours: Vec<KeyFrameId> = map
+            .covisible(kf, 1)
+            .into_iter()
+            .take(FUSE_NEIGHBOURS)
+            .map(|(k, _)| k)
+            .collect();
+        let mut candidates: Vec<MapPointId> = Vec::new();
+        for n in &neighbours {
+            if let Some(k) = map.keyframe(*n) {
+                candidates.extend(k.point_ids.iter().flatten());
+            }
+        }
+        candidates.sort_unstable();
+        candidates.dedup();
+        for id in candidates {
+            let Some(keyframe) = map.keyframe(kf) else {
+                return;
+            };
+            if keyframe.point_ids.contains(&Some(id)) {
+                continue;
+            }
+            let Some(point) = map.point(id) else { continue };
+            let p_c = keyframe.camera_from_world * point.position;
+            let Some(uv) = self.camera.project(&p_c) else {
+                continue;
+            };
+            if !self.camera.contains(uv.x, uv.y, 0.0) {
+                continue;
+            }
+            let level =
+                point.predict_level(p_c.coords.norm(), self.scale.log_scale, self.scale.levels);
+            let radius = FUSE_RADIUS_PX * self.scale.factor(level);
+            self.nearby.clear();
+            for (i, kp) in keyframe.features.keypoints.iter().enumerate() {
+                let close = (f64::from(kp.u) - uv.x).abs() < radius
+                    && (f64::from(kp.v) - uv.y).abs() < radius;
+                if close && kp.level + 1 >= u32::from(level) && kp.level <= u32::from(level) + 1 {
+                    self.nearby.push(i);
+                }
+            }
+            let best = self
+                .nearby
+                .iter()
+                .map(|&i| {
+                    (
+                        hamming(&point.descriptor, &keyframe.features.point_descriptors[i]),
+                        i,
+                    )
+                })
+                .min();
+            let Some((distance, i)) = best else { continue };
+            if distance > self.config.fuse_max_distance {
+                continue;
+            }
+            match keyframe.point_ids[i] {
+                None => {
+                    map.add_point_observation(id, kf, i);
+                }
+                Some(existing) if existing != id => {
+                    let n_existing = map.point(existing).map_or(0, |p| p.observations.len());
+                    let n_candidate = map.point(id).map_or(0, |p| p.observations.len());
+                    if n_existing >= n_candidate {
+                        map.merge_points(id, existing);
+                    } else {
+                        map.merge_points(existing, id);
+                    }
+                }
+                Some(_) => {}
+            }
+        }
+    }
+
+    /// Removes covisible keyframes whose points **and** lines are mostly seen by at least
+    /// `redundant_observers` other keyframes (paper: redundancy on both feature kinds).
+    fn cull_keyframes(&mut self, map: &mut Map, current: KeyFrameId) {
+        let first = map.keyframe_ids().first().copied();
+        for (kf, _) in map.covisible(current, 1) {
+            if Some(kf) == first || kf == current {
+                continue;
+            }
+            let Some(keyframe) = map.keyframe(kf) else {
+                continue;
+            };
+            let observers = self.keyframes.redundant_observers;
+            let (mut points, mut redundant_points) = (0usize, 0usize);
+            for (i, id) in keyframe.point_ids.iter().enumerate() {
+                let Some(p) = id.and_then(|id| map.point(id)) else {
+                    continue;
+                };
+                if keyframe.features.keypoints[i].depth > self.close_depth_m {
+                    continue;
+                }
+                points += 1;
+                redundant_points += usize::from(p.observations.len() > observers);
+            }
+            let (mut lines, mut redundant_lines) = (0usize, 0usize);
+            for id in keyframe.line_ids.iter().flatten() {
+                let Some(l) = map.line(*id) else { continue };
+                lines += 1;
+                redundant_lines += usize::from(l.observations.len() > observers);
+            }
+            let points_redundant = points > 0
+                && redundant_points as f32
+                    >= self.keyframes.redundant_point_fraction * points as f32;
+            let lines_redundant = !self.use_lines
+                || lines == 0
+                || redundant_lines as f32 >= self.keyframes.redundant_line_fraction * lines as f32;
+            if points_redundant && lines_redundant {
+                map.remove_keyframe(kf);
+            }
+        }
+    }
+
+    /// Keeps memory flat: beyond `max_keyframes`, the oldest keyframes that are not
+    /// covisible with the current one are dropped with the landmarks only they saw.
+    fn bound_map(&mut self, map: &mut Map, current: KeyFrameId) {
+        let excess = map
+            .keyframe_count()
+            .saturating_sub(self.keyframes.max_keyframes);
+        if excess == 0 {
+            return;
+        }
+        let local: Vec<KeyFrameId> = map
+            .covisible(current, 1)
+            .into_iter()
+            .map(|(k, _)| k)
+            .collect();
+        let old: Vec<KeyFrameId> = map
+            .keyframe_ids()
+            .into_iter()
+            .filter(|k| *k != current && !local.contains(k))
+            .take(excess)
+            .collect();
+        for kf in old {
+            map.remove_keyframe(kf);
+        }
+    }
+}

@@ -1,0 +1,214 @@
+//! Grid-based line matching (paper section III-C, "Grid-based Tracking"): a map line is
+//! projected with the predicted pose, and only the lines of the current frame in the
+//! grid cells it traverses (and their neighbours) are compared with its LBD
+//! descriptor. When too few lines match, the "extension search" (paper Fig. 6) also
+//! looks along the cells of the projected line's infinite extension, since a broken
+//! line keeps its slope.
+
+use crate::frame::{FrameFeatures, hamming};
+use crate::map::Map;
+use gfs_core::camera::PinholeCamera;
+use gfs_core::ids::MapLineId;
+use gfs_lines::Segment;
+use gfs_lines::grid::{CellId, LineGrid};
+use nalgebra::{Isometry3, Point3};
+use serde::Deserialize;
+
+/// Thresholds of grid-based line matching.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LineMatchConfig {
+    /// Largest LBD Hamming distance of a match (of 256 bits). Default 80.
+    pub max_distance: u32,
+    /// Best / second-best distance ratio. Default 0.85.
+    pub ratio: f32,
+    /// Largest angle between the projected map line and a candidate, degrees. Default 8.
+    pub max_angle_deg: f32,
+    /// Largest distance from the candidate's midpoint to the projected infinite line,
+    /// pixels. Default 20.
+    pub max_offset_px: f32,
+    /// Neighbourhood of the traversed cells searched, in cells. Default 1 (3x3).
+    pub cell_radius: usize,
+}
+
+impl Default for LineMatchConfig {
+    fn default() -> Self {
+        Self {
+            max_distance: 80,
+            ratio: 0.85,
+            max_angle_deg: 8.0,
+            max_offset_px: 20.0,
+            cell_radius: 1,
+        }
+    }
+}
+
+/// Closest a projected endpoint may be to the camera plane, metres.
+const MIN_ENDPOINT_DEPTH: f64 = 0.05;
+
+/// Matches map lines to the lines of the current frame through the grid index.
+#[derive(Debug, Default)]
+pub struct LineProjectionMatcher {
+    cells: Vec<CellId>,
+    candidates: Vec<u32>,
+    best: Vec<u32>,
+}
+
+impl LineProjectionMatcher {
+    /// Projects each map line with `camera_from_world` and links it to the best free
+    /// frame line among the grid candidates; with `extension`, the cells along the
+    /// projected line's extension are searched too. `matches[j]` is set for frame line
+    /// `j`; set entries are kept. Returns the number of new matches.
+    #[allow(clippy::too_many_arguments)]
+    pub fn search(
+        &mut self,
+        map: &mut Map,
+        lines: &[MapLineId],
+        camera_from_world: &Isometry3<f64>,
+        camera: &PinholeCamera,
+        frame: &FrameFeatures,
+        grid: &LineGrid,
+        config: &LineMatchConfig,
+        extension: bool,
+        count_visible: bool,
+        matches: &mut [Option<MapLineId>],
+    ) -> usize {
+        let n = frame.lines.len().min(matches.len());
+        self.best.clear();
+        self.best.resize(n, u32::MAX);
+        let max_angle = config.max_angle_deg.to_radians();
+        let mut found = 0;
+        for &id in lines {
+            let Some(line) = map.line_mut(id) else {
+                continue;
+            };
+            let Some(projected) =
+                project_segment(camera, camera_from_world, &line.start, &line.end)
+            else {
+                continue;
+            };
+            if count_visible {
+                line.visible += 1;
+            }
+            grid.candidates(
+                &projected,
+                config.cell_radius,
+                extension,
+                &mut self.cells,
+                &mut self.candidates,
+            );
+            let coefficients = projected.line_coefficients();
+            let (mut best, mut second, mut best_index) = (u32::MAX, u32::MAX, usize::MAX);
+            for &j in &self.candidates {
+                let j = j as usize;
+                if j >= n || matches[j].is_some() {
+                    continue;
+                }
+                let observed = &frame.lines[j].segment;
+                if undirected_angle(observed.angle(), projected.angle()) > max_angle {
+                    continue;
+                }
+                let [a, b, c] = coefficients;
+                let [mu, mv] = observed.midpoint();
+                if (a * mu + b * mv + c).abs() > config.max_offset_px {
+                    continue;
+                }
+                let d = hamming(&line.descriptor, &frame.line_descriptors[j]);
+                if d < best {
+                    second = best;
+                    (best, best_index) = (d, j);
+                } else if d < second {
+                    second = d;
+                }
+            }
+            if best > config.max_distance
+                || best_index == usize::MAX
+                || best >= self.best[best_index]
+            {
+                continue;
+            }
+            if second != u32::MAX && best as f32 > config.ratio * second as f32 {
+                continue;
+            }
+            self.best[best_index] = best;
+            if matches[best_index].is_none() {
+                found += 1;
+            }
+            matches[best_index] = Some(id);
+        }
+        found
+    }
+}
+
+/// Projects a world segment, clipping it where it passes behind the camera; `None` when
+/// it is entirely behind or degenerate. The projection may extend beyond the image: the
+/// grid clips it.
+pub fn project_segment(
+    camera: &PinholeCamera,
+    camera_from_world: &Isometry3<f64>,
+    start: &Point3<f64>,
+    end: &Point3<f64>,
+) -> Option<Segment> {
+    let (mut s, mut e) = (camera_from_world * start, camera_from_world * end);
+    if s.z < MIN_ENDPOINT_DEPTH && e.z < MIN_ENDPOINT_DEPTH {
+        return None;
+    }
+    // Move the endpoint behind the camera along the segment to the minimum depth.
+    if s.z < MIN_ENDPOINT_DEPTH {
+        let t = (MIN_ENDPOINT_DEPTH - s.z) / (e.z - s.z);
+        s += (e - s) * t;
+    } else if e.z < MIN_ENDPOINT_DEPTH {
+        let t = (MIN_ENDPOINT_DEPTH - e.z) / (s.z - e.z);
+        e += (s - e) * t;
+    }
+    let (a, b) = (camera.project(&s)?, camera.project(&e)?);
+    let segment = Segment::new(a.x as f32, a.y as f32, b.x as f32, b.y as f32);
+    let visible = camera.contains(a.x, a.y, 0.0) || camera.contains(b.x, b.y, 0.0);
+    (segment.length() > 1.0 && visible).then_some(segment)
+}
+
+/// Angle between two undirected line directions, in [0, pi/2].
+fn undirected_angle(a: f32, b: f32) -> f32 {
+    let d = (a - b).rem_euclid(std::f32::consts::PI);
+    d.min(std::f32::consts::PI - d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn undirected_angles_ignore_direction() {
+        use std::f32::consts::PI;
+        assert!(undirected_angle(0.1, 0.1 + PI) < 1e-6);
+        assert!((undirected_angle(0.0, PI / 2.0) - PI / 2.0).abs() < 1e-6);
+        assert!((undirected_angle(0.05, -0.05) - 0.1).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_segment_crossing_the_camera_plane_is_clipped() {
+        let camera = PinholeCamera::new(500.0, 500.0, 320.0, 240.0, 640, 480);
+        let s = project_segment(
+            &camera,
+            &Isometry3::identity(),
+            &Point3::new(0.0, 0.0, 2.0),
+            &Point3::new(0.0, 0.5, -1.0),
+        )
+        .unwrap();
+        assert_eq!(s.start, [320.0, 240.0]);
+        assert!(
+            s.end[1] > 480.0,
+            "clipped endpoint projects far below: {:?}",
+            s.end
+        );
+        assert!(
+            project_segment(
+                &camera,
+                &Isometry3::identity(),
+                &Point3::new(0.0, 0.0, -1.0),
+                &Point3::new(1.0, 0.0, -2.0)
+            )
+            .is_none()
+        );
+    }
+}

@@ -1,0 +1,438 @@
+//! Frame-to-map tracking (paper section III-C): motion-model prediction, point and
+//! grid-based line matching against the last frame, pose optimisation, fallback to the
+//! reference keyframe, then local-map tracking and a second optimisation.
+
+use crate::config::TrackingConfig;
+use crate::frame::FrameFeatures;
+use crate::map::{IdMap, Map};
+use crate::matching::{
+    LineProjectionMatcher, PointProjectionMatcher, ProjectionCandidate, ScalePyramid,
+    match_descriptors,
+};
+use crate::motion::MotionModel;
+use crate::pose_solver::{Inliers, PoseSolver};
+use crate::status::TrackingStatus;
+use gfs_core::camera::PinholeCamera;
+use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
+use gfs_lines::grid::{GridConfig, LineGrid};
+use gfs_points::KeyPointGrid;
+use nalgebra::Isometry3;
+
+/// The result of tracking one frame.
+#[derive(Clone, Debug)]
+pub struct TrackedFrame {
+    /// The frame's features.
+    pub features: FrameFeatures,
+    /// Estimated `camera_from_world`.
+    pub camera_from_world: Isometry3<f64>,
+    /// How the pose was obtained.
+    pub status: TrackingStatus,
+    /// Map point matched to each keypoint (inliers only).
+    pub point_ids: Vec<Option<MapPointId>>,
+    /// Map line matched to each line (inliers only).
+    pub line_ids: Vec<Option<MapLineId>>,
+    /// Inlier counts of the final optimisation.
+    pub inliers: Inliers,
+}
+
+/// Keypoint grid cell size in pixels (ORB-SLAM2 uses a 64x48 grid on 640x480: 10 px).
+const POINT_GRID_CELL: f32 = 10.0;
+/// Fewer matches than this against the last frame: search again with twice the radius.
+const RETRY_WIDER_BELOW: usize = 20;
+/// Exhaustive matching thresholds against the reference keyframe (ORB-SLAM2 uses
+/// `TH_LOW` = 50 with a 0.7 ratio for bag-of-words matching).
+const REFERENCE_MAX_DISTANCE: u32 = 64;
+const REFERENCE_RATIO: f32 = 0.75;
+
+/// Tracks frames against a [`Map`] it does not own.
+pub struct Tracker {
+    config: TrackingConfig,
+    camera: PinholeCamera,
+    scale: ScalePyramid,
+    motion: MotionModel,
+    last: Option<TrackedFrame>,
+    reference: Option<KeyFrameId>,
+    point_grid: KeyPointGrid,
+    line_grid: LineGrid,
+    point_matcher: PointProjectionMatcher,
+    line_matcher: LineProjectionMatcher,
+    solver: PoseSolver,
+    candidates: Vec<ProjectionCandidate>,
+    local_lines: Vec<MapLineId>,
+    local_keyframes: Vec<KeyFrameId>,
+    descriptor_matches: Vec<Option<usize>>,
+}
+
+impl Tracker {
+    /// A tracker for `camera` whose ORB pyramid has `levels` levels `scale_factor` apart.
+    pub fn new(
+        config: TrackingConfig,
+        camera: PinholeCamera,
+        scale_factor: f64,
+        levels: u8,
+        grid: &GridConfig,
+    ) -> Self {
+        Self {
+            point_grid: KeyPointGrid::new(camera.width, camera.height, POINT_GRID_CELL),
+            line_grid: LineGrid::new(grid),
+            scale: ScalePyramid::new(scale_factor, levels),
+            solver: PoseSolver::default(),
+            point_matcher: PointProjectionMatcher::default(),
+            line_matcher: LineProjectionMatcher::default(),
+            motion: MotionModel::default(),
+            last: None,
+            reference: None,
+            candidates: Vec::new(),
+            local_lines: Vec::new(),
+            local_keyframes: Vec::new(),
+            descriptor_matches: Vec::new(),
+            config,
+            camera,
+        }
+    }
+
+    /// The config.
+    pub fn config(&self) -> &TrackingConfig {
+        &self.config
+    }
+
+    /// The scale pyramid of the keypoints.
+    pub fn scale(&self) -> &ScalePyramid {
+        &self.scale
+    }
+
+    /// The keyframe the tracker currently refers to.
+    pub fn reference(&self) -> Option<KeyFrameId> {
+        self.reference
+    }
+
+    /// Sets the reference keyframe (after a keyframe was created).
+    pub fn set_reference(&mut self, keyframe: KeyFrameId) {
+        self.reference = Some(keyframe);
+    }
+
+    /// The pose predicted for the next frame, if any frame was seen.
+    pub fn predict(&self) -> Option<Isometry3<f64>> {
+        self.motion.predict()
+    }
+
+    /// The motion model's velocity (`current_from_previous`), if known.
+    pub fn velocity(&self) -> Option<&Isometry3<f64>> {
+        self.motion.velocity()
+    }
+
+    /// Records the final state of a frame (after keyframe decisions) as the last frame.
+    pub fn finish_frame(&mut self, frame: TrackedFrame) {
+        self.motion
+            .update(&frame.camera_from_world, frame.status.is_tracked());
+        if frame.status == TrackingStatus::Relocalised {
+            self.motion.reset_velocity();
+        }
+        self.last = Some(frame);
+    }
+
+    /// Tracks `features` against `map`. Never fails: an untracked frame gets the
+    /// predicted pose and [`TrackingStatus::Predicted`].
+    pub fn track(&mut self, map: &mut Map, features: FrameFeatures) -> TrackedFrame {
+        let predicted = self.motion.predict().unwrap_or_else(Isometry3::identity);
+        let mut frame = TrackedFrame {
+            point_ids: vec![None; features.keypoints.len()],
+            line_ids: vec![None; features.lines.len()],
+            camera_from_world: predicted,
+            status: TrackingStatus::Predicted,
+            inliers: Inliers::default(),
+            features,
+        };
+        self.point_grid.build(&frame.features.keypoints);
+        if self.config.use_lines {
+            self.line_grid.build(
+                self.camera.width,
+                self.camera.height,
+                frame.features.lines.iter().map(|l| &l.segment),
+            );
+        }
+        let mut ok = self.track_last_frame(map, &mut frame);
+        if !ok {
+            ok = self.track_reference_keyframe(map, &mut frame);
+        }
+        if ok || self.last.is_none() {
+            ok = self.track_local_map(map, &mut frame);
+        }
+        if ok {
+            frame.status = if frame.inliers.total() < self.config.degraded_inliers {
+                TrackingStatus::Degraded
+            } else {
+                TrackingStatus::Tracked
+            };
+        } else {
+            frame.camera_from_world = predicted;
+            frame.point_ids.iter_mut().for_each(|m| *m = None);
+            frame.line_ids.iter_mut().for_each(|m| *m = None);
+            frame.inliers = Inliers::default();
+        }
+        frame
+    }
+
+    /// Matches the map landmarks of the last frame by projection and optimises.
+    fn track_last_frame(&mut self, map: &mut Map, frame: &mut TrackedFrame) -> bool {
+        let Some(last) = &self.last else { return false };
+        self.candidates.clear();
+        for (i, id) in last.point_ids.iter().enumerate() {
+            if let Some(id) = id {
+                self.candidates.push(ProjectionCandidate {
+                    id: *id,
+                    angle: Some(last.features.keypoints[i].angle),
+                });
+            }
+        }
+        self.local_lines.clear();
+        self.local_lines.extend(last.line_ids.iter().flatten());
+        let pose = frame.camera_from_world;
+        let radius = self.config.points.radius_last_frame;
+        let mut matched = self.search_points(map, &pose, frame, radius, false);
+        if matched < RETRY_WIDER_BELOW {
+            frame.point_ids.iter_mut().for_each(|m| *m = None);
+            matched = self.search_points(map, &pose, frame, 2.0 * radius, false);
+        }
+        matched += self.search_lines(map, &pose, frame, false);
+        if matched < self.config.min_inliers / 2 {
+            return false;
+        }
+        self.optimise(map, frame) >= self.config.min_inliers / 2
+    }
+
+    /// Matches the reference keyframe's landmarks by descriptor alone and optimises from
+    /// the last pose: the fallback when the motion model failed.
+    fn track_reference_keyframe(&mut self, map: &mut Map, frame: &mut TrackedFrame) -> bool {
+        let Some(reference) = self.reference.and_then(|id| map.keyframe(id)) else {
+            return false;
+        };
+        let train: Vec<_> = reference.point_ids.iter().flatten().copied().collect();
+        let train_descriptors: Vec<_> = train
+            .iter()
+            .filter_map(|id| map.point(*id).map(|p| p.descriptor))
+            .collect();
+        if train_descriptors.len() != train.len() {
+            return false;
+        }
+        match_descriptors(
+            &frame.features.point_descriptors,
+            &train_descriptors,
+            REFERENCE_MAX_DISTANCE,
+            REFERENCE_RATIO,
+            &mut self.descriptor_matches,
+        );
+        frame.point_ids.iter_mut().for_each(|m| *m = None);
+        let mut matched = 0;
+        for (i, m) in self.descriptor_matches.iter().enumerate() {
+            if let Some(t) = m {
+                frame.point_ids[i] = Some(train[*t]);
+                matched += 1;
+            }
+        }
+        if matched < self.config.min_inliers {
+            return false;
+        }
+        if let Some(last) = &self.last {
+            frame.camera_from_world = last.camera_from_world;
+        }
+        self.optimise(map, frame) >= self.config.min_inliers / 2
+    }
+
+    /// Projects the local map (landmarks of the keyframes covisible with the current
+    /// matches) into the frame, matches what is not matched yet, and optimises again.
+    fn track_local_map(&mut self, map: &mut Map, frame: &mut TrackedFrame) -> bool {
+        self.collect_local_keyframes(map, frame);
+        let mut seen_points: IdMap<MapPointId, ()> = frame
+            .point_ids
+            .iter()
+            .flatten()
+            .map(|id| (*id, ()))
+            .collect();
+        let mut seen_lines: IdMap<MapLineId, ()> = frame
+            .line_ids
+            .iter()
+            .flatten()
+            .map(|id| (*id, ()))
+            .collect();
+        self.candidates.clear();
+        self.local_lines.clear();
+        for kf in &self.local_keyframes {
+            let Some(keyframe) = map.keyframe(*kf) else {
+                continue;
+            };
+            for (i, id) in keyframe.point_ids.iter().enumerate() {
+                if let Some(id) = id
+                    && seen_points.insert(*id, ()).is_none()
+                {
+                    let angle = keyframe.features.keypoints.get(i).map(|k| k.angle);
+                    self.candidates.push(ProjectionCandidate { id: *id, angle });
+                }
+            }
+            for id in keyframe.line_ids.iter().flatten() {
+                if seen_lines.insert(*id, ()).is_none() {
+                    self.local_lines.push(*id);
+                }
+            }
+        }
+        let pose = frame.camera_from_world;
+        // Rotation consistency is only meaningful for matches against one other view.
+        let check = self.config.points.check_orientation;
+        self.config.points.check_orientation = false;
+        self.search_points(map, &pose, frame, self.config.points.radius_local_map, true);
+        self.config.points.check_orientation = check;
+        self.search_lines(map, &pose, frame, true);
+        let inliers = self.optimise(map, frame);
+        for id in frame.point_ids.iter().flatten() {
+            if let Some(p) = map.point_mut(*id) {
+                p.found += 1;
+            }
+        }
+        for id in frame.line_ids.iter().flatten() {
+            if let Some(l) = map.line_mut(*id) {
+                l.found += 1;
+            }
+        }
+        inliers >= self.config.min_inliers
+    }
+
+    /// The keyframes that share the most landmarks with the current matches, plus the
+    /// best covisible neighbours of those, up to `local_keyframes`.
+    fn collect_local_keyframes(&mut self, map: &Map, frame: &TrackedFrame) {
+        let mut votes: IdMap<KeyFrameId, u32> = IdMap::default();
+        let point_obs = frame
+            .point_ids
+            .iter()
+            .flatten()
+            .filter_map(|id| map.point(*id))
+            .map(|p| &p.observations);
+        let line_obs = frame
+            .line_ids
+            .iter()
+            .flatten()
+            .filter_map(|id| map.line(*id))
+            .map(|l| &l.observations);
+        for observations in point_obs.chain(line_obs) {
+            for (kf, _) in observations {
+                *votes.entry(*kf).or_insert(0) += 1;
+            }
+        }
+        let mut ranked: Vec<_> = votes.into_iter().collect();
+        ranked.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(b.0.cmp(&a.0)));
+        self.local_keyframes.clear();
+        self.local_keyframes.extend(
+            ranked
+                .iter()
+                .map(|(kf, _)| *kf)
+                .take(self.config.local_keyframes),
+        );
+        if let Some((best, _)) = ranked.first() {
+            self.reference = Some(*best);
+        }
+        let mut i = 0;
+        while i < self.local_keyframes.len()
+            && self.local_keyframes.len() < self.config.local_keyframes
+        {
+            for (neighbour, _) in map
+                .covisible(self.local_keyframes[i], 15)
+                .into_iter()
+                .take(5)
+            {
+                if !self.local_keyframes.contains(&neighbour)
+                    && self.local_keyframes.len() < self.config.local_keyframes
+                {
+                    self.local_keyframes.push(neighbour);
+                }
+            }
+            i += 1;
+        }
+        if self.local_keyframes.is_empty()
+            && let Some(reference) = self.reference
+        {
+            self.local_keyframes.push(reference);
+        }
+    }
+
+    fn search_points(
+        &mut self,
+        map: &mut Map,
+        pose: &Isometry3<f64>,
+        frame: &mut TrackedFrame,
+        radius: f64,
+        count_visible: bool,
+    ) -> usize {
+        self.point_matcher.search(
+            map,
+            &self.candidates,
+            pose,
+            &self.camera,
+            &frame.features,
+            &self.point_grid,
+            &self.scale,
+            radius,
+            &self.config.points,
+            count_visible,
+            &mut frame.point_ids,
+        )
+    }
+
+    fn search_lines(
+        &mut self,
+        map: &mut Map,
+        pose: &Isometry3<f64>,
+        frame: &mut TrackedFrame,
+        count_visible: bool,
+    ) -> usize {
+        if !self.config.use_lines {
+            return 0;
+        }
+        let mut matched = self.line_matcher.search(
+            map,
+            &self.local_lines,
+            pose,
+            &self.camera,
+            &frame.features,
+            &self.line_grid,
+            &self.config.lines,
+            false,
+            count_visible,
+            &mut frame.line_ids,
+        );
+        let total = frame.line_ids.iter().flatten().count();
+        if total < self.config.extension_search_below {
+            matched += self.line_matcher.search(
+                map,
+                &self.local_lines,
+                pose,
+                &self.camera,
+                &frame.features,
+                &self.line_grid,
+                &self.config.lines,
+                true,
+                false,
+                &mut frame.line_ids,
+            );
+        }
+        matched
+    }
+
+    /// Optimises the frame pose from its matches; outliers are unlinked. Returns the
+    /// number of inliers (points + lines).
+    fn optimise(&mut self, map: &Map, frame: &mut TrackedFrame) -> usize {
+        frame.inliers = self.solver.solve(
+            self.config.close_depth_m,
+            map,
+            &frame.features,
+            &self.camera,
+            &self.scale,
+            &mut frame.camera_from_world,
+            &mut frame.point_ids,
+            if self.config.use_lines {
+                &mut frame.line_ids
+            } else {
+                &mut []
+            },
+        );
+        frame.inliers.total()
+    }
+}

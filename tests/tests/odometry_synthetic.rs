@@ -1,0 +1,151 @@
+//! End-to-end accuracy of the in-process odometry on synthetic sequences with exact
+//! ground truth: the front end extracts points, lines and planes from the rendered
+//! frames, the odometry tracks them, and the ATE (SE(3)-aligned, as `gfsvo eval`) is
+//! asserted, with the number of untracked frames.
+
+use gfs_dataset::{EVO_MAX_DIFF_S, Trajectory, evaluate};
+use gfs_lines::extractor::LineConfig;
+use gfs_odometry::{Frontend, Odometry, OdometryConfig, TrackingStatus};
+use gfs_planes::PlaneConfig;
+use gfs_points::OrbConfig;
+use gfs_synth::{NoiseConfig, SceneKind, SynthConfig, SynthSequence, TrajectoryKind};
+
+struct RunResult {
+    ate_rmse_m: f64,
+    predicted: usize,
+    relocalised: usize,
+}
+
+fn run(
+    scene: SceneKind,
+    trajectory: TrajectoryKind,
+    frames: usize,
+    noise: NoiseConfig,
+    config: OdometryConfig,
+) -> RunResult {
+    let sequence = SynthSequence::new(SynthConfig {
+        scene,
+        trajectory,
+        frames,
+        noise,
+        ..SynthConfig::default()
+    });
+    let camera = sequence.config().camera;
+    let (points, lines, planes) = (
+        OrbConfig::default(),
+        LineConfig::default(),
+        PlaneConfig::default(),
+    );
+    let mut frontend = Frontend::new(
+        camera,
+        &points,
+        &lines,
+        &planes,
+        config.tracking.use_lines,
+        config.tracking.use_manhattan,
+    )
+    .unwrap();
+    let mut odometry = Odometry::new(
+        config,
+        camera,
+        f64::from(points.scale_factor),
+        points.levels as u8,
+        &lines.grid,
+    );
+    let (mut estimate, mut truth) = (Trajectory::new(), Trajectory::new());
+    let (mut predicted, mut relocalised) = (0, 0);
+    for i in 0..sequence.len() {
+        let frame = sequence.render(i);
+        let rotation = odometry.predicted_rotation();
+        let features = frontend
+            .extract(
+                gfs_core::ids::FrameId(i as u64),
+                frame.timestamp,
+                frame.gray.view(),
+                frame.depth.view(),
+                rotation.as_ref(),
+            )
+            .unwrap();
+        let pose = odometry.process(features).unwrap();
+        predicted += usize::from(pose.status == TrackingStatus::Predicted);
+        relocalised += usize::from(pose.status == TrackingStatus::Relocalised);
+        estimate.push(frame.timestamp, pose.world_from_camera);
+        truth.push(frame.timestamp, frame.pose);
+    }
+    let evaluation = evaluate(&truth, &estimate, EVO_MAX_DIFF_S).unwrap();
+    assert_eq!(evaluation.matched(), frames);
+    let result = RunResult {
+        ate_rmse_m: evaluation.ate.stats.rmse,
+        predicted,
+        relocalised,
+    };
+    println!(
+        "{scene:?} {trajectory:?}: ATE {:.4} m, predicted {predicted}, relocalised {relocalised}",
+        result.ate_rmse_m
+    );
+    result
+}
+
+#[test]
+fn textured_room_slow_noise_free_is_tracked_within_a_centimetre() {
+    let r = run(
+        SceneKind::Room,
+        TrajectoryKind::Slow,
+        120,
+        NoiseConfig::none(),
+        OdometryConfig::default(),
+    );
+    assert_eq!(r.predicted, 0, "no frame may be lost");
+    assert!(r.ate_rmse_m <= 0.01, "ATE {} m", r.ate_rmse_m);
+}
+
+#[test]
+fn textured_room_with_kinect_noise_is_tracked_within_a_centimetre() {
+    let r = run(
+        SceneKind::Room,
+        TrajectoryKind::Slow,
+        120,
+        NoiseConfig::default(),
+        OdometryConfig::default(),
+    );
+    assert_eq!(r.predicted + r.relocalised, 0, "no frame may be lost");
+    assert!(r.ate_rmse_m <= 0.01, "ATE {} m", r.ate_rmse_m);
+}
+
+#[test]
+fn fast_motion_is_tracked_within_a_centimetre() {
+    let r = run(
+        SceneKind::Room,
+        TrajectoryKind::Fast,
+        120,
+        NoiseConfig::default(),
+        OdometryConfig::default(),
+    );
+    assert_eq!(r.predicted, 0, "no frame may be lost");
+    assert!(r.ate_rmse_m <= 0.01, "ATE {} m", r.ate_rmse_m);
+}
+
+#[test]
+fn mostly_rotation_is_tracked_within_a_centimetre() {
+    let r = run(
+        SceneKind::Room,
+        TrajectoryKind::Rotation,
+        120,
+        NoiseConfig::default(),
+        OdometryConfig::default(),
+    );
+    assert_eq!(r.predicted, 0, "no frame may be lost");
+    assert!(r.ate_rmse_m <= 0.01, "ATE {} m", r.ate_rmse_m);
+}
+
+#[test]
+fn low_texture_room_stays_within_a_centimetre() {
+    let r = run(
+        SceneKind::LowTexture,
+        TrajectoryKind::Slow,
+        120,
+        NoiseConfig::default(),
+        OdometryConfig::default(),
+    );
+    assert!(r.ate_rmse_m <= 0.01, "ATE {} m", r.ate_rmse_m);
+}
