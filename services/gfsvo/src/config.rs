@@ -26,6 +26,15 @@ pub struct Config {
     /// `[points]`: ORB extraction (pyramid, FAST thresholds, feature budget, depth range).
     #[serde(default)]
     pub points: gfs_points::OrbConfig,
+    /// `[tracking]`: matching thresholds, inlier limits and the lines / Manhattan switches.
+    #[serde(default)]
+    pub tracking: gfs_odometry::TrackingConfig,
+    /// `[keyframes]`: keyframe selection and culling on points and lines.
+    #[serde(default)]
+    pub keyframes: gfs_odometry::KeyframeConfig,
+    /// `[mapping]`: landmark creation and the local BA.
+    #[serde(default)]
+    pub mapping: gfs_odometry::MappingConfig,
 }
 
 /// The built-in configs, by name (the file stem in `configs/`).
@@ -37,6 +46,9 @@ const BUILT_IN: &[(&str, &str)] = &[
     ("7scenes", include_str!("../../../configs/7scenes.toml")),
     ("synthetic", include_str!("../../../configs/synthetic.toml")),
 ];
+
+/// The config file `gfsvo synth` writes into the folders it renders.
+const SYNTHETIC_MARKER: &str = "synthetic.toml";
 
 /// A config could not be found, read or understood.
 #[derive(Debug, thiserror::Error)]
@@ -83,19 +95,17 @@ impl Config {
         Ok(config)
     }
 
-    /// The config in `path`, or else the built-in one that the dataset folder name names.
+    /// The config in `path`; else the folder's own `synthetic.toml` (written by
+    /// `gfsvo synth` with the camera it rendered with); else the built-in config that the
+    /// dataset folder name names.
     ///
     /// # Errors
     /// [`ConfigError`] when the file cannot be read or parsed, or no built-in config fits.
     pub fn load(path: Option<&Path>, dataset: &Path) -> Result<Self, ConfigError> {
+        let own = dataset.join(SYNTHETIC_MARKER);
         match path {
-            Some(path) => {
-                let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
-                    path: path.display().to_string(),
-                    source,
-                })?;
-                Self::from_toml(&text, &path.display().to_string())
-            }
+            Some(path) => Self::read(path),
+            None if own.is_file() => Self::read(&own),
             None => {
                 let name = built_in_for(dataset).ok_or_else(|| ConfigError::UnknownCamera {
                     dataset: dataset.display().to_string(),
@@ -103,6 +113,14 @@ impl Config {
                 Self::built_in(name)
             }
         }
+    }
+
+    fn read(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml(&text, &path.display().to_string())
     }
 
     /// A built-in config by name (`tum1`, `tum2`, `tum3`, `icl`, `7scenes`, `synthetic`).
@@ -121,6 +139,15 @@ impl Config {
         Self::from_toml(text, &format!("configs/{name}.toml"))
     }
 
+    /// The odometry's part of the config.
+    pub fn odometry(&self) -> gfs_odometry::OdometryConfig {
+        gfs_odometry::OdometryConfig {
+            tracking: self.tracking.clone(),
+            keyframes: self.keyframes.clone(),
+            mapping: self.mapping.clone(),
+        }
+    }
+
     /// The validated camera.
     ///
     /// # Errors
@@ -133,12 +160,8 @@ impl Config {
     }
 }
 
-/// Which built-in config a dataset folder's name points to, if any. The
-/// `synthetic.toml` marker written by `gfsvo synth` wins over the name.
+/// Which built-in config a dataset folder's name points to, if any.
 fn built_in_for(dataset: &Path) -> Option<&'static str> {
-    if dataset.join("synthetic.toml").is_file() {
-        return Some("synthetic");
-    }
     let name = dataset
         .canonicalize()
         .unwrap_or_else(|_| dataset.to_path_buf());

@@ -32,6 +32,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Run the odometry on a dataset folder (default: the built-in synthetic sequence):
+    /// writes trajectory.txt and status.txt, prints the ATE and the time per stage.
+    Run(cmd::run::RunArgs),
     /// Compare an estimated trajectory with ground truth: ATE and RPE, as evo computes them.
     Eval(cmd::eval::EvalArgs),
     /// Render a synthetic RGB-D sequence with ground truth in TUM layout.
@@ -45,6 +48,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(&cli.log);
     let result = match &cli.command {
+        Command::Run(args) => cmd::run::run(args),
         Command::Eval(args) => cmd::eval::run(args),
         Command::Synth(args) => cmd::synth::run(args),
         Command::Bench(command) => bench::run(command),

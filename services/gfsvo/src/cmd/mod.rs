@@ -1,4 +1,5 @@
 //! Subcommands other than the benchmarks.
 
 pub mod eval;
+pub mod run;
 pub mod synth;
