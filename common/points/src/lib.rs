@@ -20,6 +20,14 @@
 //! [`OrbExtractor`] owns every buffer and reuses it frame to frame; it records the time
 //! of each step of its last call ([`OrbTimings`]).
 //!
+//! Speed (`gfsvo bench points`, the 300 frames of `tum_fr1_rpy_head300`, one thread,
+//! AVX2 chosen at run time, fastest of 3 runs per frame, median): 4.3-4.4 ms per
+//! 640x480 frame for 1000 features (pyramid 0.67, FAST + distribution 2.4-2.5,
+//! orientation + descriptors 1.2), the same as OpenCV 5.0's `ORB` (4.3 ms, same
+//! parameters, measured the same way), which does less: on these blurry frames about
+//! three cells in four find no corner at threshold 20 and are searched again at 7.
+//! Without that retry (`fast_min_threshold = 20`) the extractor takes 3.4 ms.
+//!
 //! Matching: [`hamming`], [`best_two`] with [`BestMatch::passes_ratio`],
 //! [`RotationHistogram`] (rotation consistency), [`KeyPointGrid`] (search by
 //! projection in a window).
