@@ -69,7 +69,7 @@ impl Default for TrackingConfig {
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct KeyframeConfig {
-    /// A keyframe at least every this many frames while tracking is weak. Default 30.
+    /// A keyframe at least every this many frames (ORB-SLAM2 `mMaxFrames` = fps). Default 30.
     pub max_frames: u32,
     /// New keyframe when tracked points fall below this fraction of the reference
     /// keyframe's. Default 0.75 (ORB-SLAM2, RGB-D).

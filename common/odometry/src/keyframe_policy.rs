@@ -11,6 +11,8 @@ use gfs_core::ids::KeyFrameId;
 /// while more than 70 close ones are untracked asks for a keyframe).
 const CLOSE_TRACKED_MIN: usize = 100;
 const CLOSE_UNTRACKED_MAX: usize = 70;
+/// With the lines' ratio low, the points must be below this fraction of the reference's.
+const LINE_RULE_POINT_RATIO: f32 = 0.9;
 /// A keyframe needs at least this many tracked points to anchor the map (ORB-SLAM2: 15).
 const MIN_INLIERS_FOR_KEYFRAME: usize = 15;
 
@@ -29,12 +31,10 @@ pub fn needs_keyframe(
     let Some(reference) = reference.and_then(|id| map.keyframe(id)) else {
         return true;
     };
-    // Points of a single keyframe have one observation each: count them all then.
-    let min_observations = match map.keyframe_count() {
-        0 | 1 => 1,
-        2 => 2,
-        _ => 3,
-    };
+    // Points seen by two keyframes (all of them while there is one): ORB-SLAM2 asks
+    // for three, which with few, sparse keyframes stays so small that the ratio test
+    // never fires and new structure goes unmapped.
+    let min_observations = if map.keyframe_count() < 2 { 1 } else { 2 };
     let reference_points = reference
         .point_ids
         .iter()
@@ -62,20 +62,14 @@ pub fn needs_keyframe(
         }
     }
     let need_close = close_tracked < CLOSE_TRACKED_MIN && close_untracked > CLOSE_UNTRACKED_MAX;
-    let point_ratio = if map.keyframe_count() < 2 {
-        0.4
-    } else {
-        config.point_ratio
-    };
-    let points_low = (frame.inliers.points as f32) < reference_points as f32 * point_ratio;
+    let points = frame.inliers.points as f32;
+    let points_low = points < reference_points as f32 * config.point_ratio;
+    // Lines are less stable than points after homogenisation (paper "Keyframe Select and
+    // Filter"): a drop in lines asks for a keyframe only when the points dropped too.
     let lines_low = reference_lines >= 10
-        && (frame.inliers.lines as f32) < reference_lines as f32 * config.line_ratio;
-
-    // The in-process mapper is idle whenever the tracker asks (ORB-SLAM2's c1b), so the
-    // remaining condition is the coverage one (c2), with lines beside points.
+        && (frame.inliers.lines as f32) < reference_lines as f32 * config.line_ratio
+        && points < reference_points as f32 * LINE_RULE_POINT_RATIO;
     let timeout = frames_since_keyframe >= config.max_frames;
-    let weak = (frame.inliers.points as f32) < reference_points as f32 * 0.25;
-    let c2 =
-        (points_low || lines_low || need_close) && frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME;
-    c2 || (timeout && weak && frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME)
+    (points_low || lines_low || need_close || timeout)
+        && frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME
 }

@@ -61,6 +61,19 @@ impl LocalBundleAdjuster {
             return;
         }
         let inliers = &self.result.inliers;
+        tracing::debug!(
+            keyframe = %kf,
+            poses = problem.poses.len(),
+            fixed = problem.poses.iter().filter(|p| p.fixed).count(),
+            points = problem.points.len(),
+            lines = problem.lines.len(),
+            point_outliers = inliers.point_observations.iter().filter(|i| !**i).count(),
+            point_observations = inliers.point_observations.len(),
+            initial_cost = self.result.initial_cost,
+            final_cost = self.result.final_cost,
+            iterations = self.result.iterations,
+            "local BA"
+        );
         for (pose, id) in problem.poses.iter().zip(&self.pose_ids) {
             if let (false, Some(keyframe)) = (pose.fixed, map.keyframe_mut(*id)) {
                 keyframe.camera_from_world = pose.camera_from_world;

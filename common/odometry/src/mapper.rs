@@ -12,6 +12,7 @@ use crate::matching::ScalePyramid;
 use crate::tracker::TrackedFrame;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{KeyFrameId, MapPointId};
+use gfs_points::KeyPointGrid;
 use nalgebra::Point3;
 
 /// Keyframes after which a recently created point must be seen by this many keyframes.
@@ -21,6 +22,11 @@ const RECENT_POINT_MIN_OBSERVATIONS: usize = 3;
 const MIN_FOUND_RATIO: f64 = 0.25;
 /// Search radius when fusing, pixels at level 0 (ORB-SLAM2 `Fuse`: 3 x scale).
 const FUSE_RADIUS_PX: f64 = 3.0;
+/// Chi-square bounds (95 %) of a keypoint's agreement with a projection, 2 and 3 dof.
+const CHI2_2DOF: f64 = 5.991;
+const CHI2_3DOF: f64 = 7.815;
+/// Cell of the keypoint grid the fusion searches in, pixels.
+const FUSE_GRID_CELL_PX: f32 = 10.0;
 /// Covisible keyframes whose points are fused into a new keyframe.
 const FUSE_NEIGHBOURS: usize = 10;
 
@@ -34,6 +40,7 @@ pub struct Mapper {
     use_lines: bool,
     recent_points: Vec<MapPointId>,
     ba: LocalBundleAdjuster,
+    grid: KeyPointGrid,
     nearby: Vec<usize>,
 }
 
@@ -50,6 +57,7 @@ impl Mapper {
         Self {
             ba: LocalBundleAdjuster::default(),
             recent_points: Vec::new(),
+            grid: KeyPointGrid::new(camera.width, camera.height, FUSE_GRID_CELL_PX),
             nearby: Vec::new(),
             config,
             keyframes,
@@ -233,6 +241,9 @@ impl Mapper {
         }
         candidates.sort_unstable();
         candidates.dedup();
+        if let Some(keyframe) = map.keyframe(kf) {
+            self.grid.build(&keyframe.features.keypoints);
+        }
         for id in candidates {
             let Some(keyframe) = map.keyframe(kf) else {
                 return;
@@ -251,17 +262,34 @@ impl Mapper {
             let level =
                 point.predict_level(p_c.coords.norm(), self.scale.log_scale, self.scale.levels);
             let radius = FUSE_RADIUS_PX * self.scale.factor(level);
-            self.nearby.clear();
-            for (i, kp) in keyframe.features.keypoints.iter().enumerate() {
-                let close = (f64::from(kp.u) - uv.x).abs() < radius
-                    && (f64::from(kp.v) - uv.y).abs() < radius;
-                if close && kp.level + 1 >= u32::from(level) && kp.level <= u32::from(level) + 1 {
-                    self.nearby.push(i);
+            self.grid.features_in_area(
+                uv.x as f32,
+                uv.y as f32,
+                radius as f32,
+                u32::from(level.saturating_sub(1)),
+                u32::from(level) + 1,
+                &mut self.nearby,
+            );
+            // ORB-SLAM2's `Fuse` gate: the keypoint must agree with the projection within
+            // the chi-square bound of its level, including the depth as a virtual right
+            // coordinate when it has one.
+            let bf = self.config.ba.bf;
+            let predicted_right = uv.x - bf / p_c.z;
+            let consistent = |i: &usize| {
+                let kp = &keyframe.features.keypoints[*i];
+                let (ex, ey) = (uv.x - f64::from(kp.u), uv.y - f64::from(kp.v));
+                let inv_sigma2 = self.scale.inv_sigma2(kp.level);
+                if kp.depth > 0.0 {
+                    let er = predicted_right - (f64::from(kp.u) - bf / f64::from(kp.depth));
+                    (ex * ex + ey * ey + er * er) * inv_sigma2 <= CHI2_3DOF
+                } else {
+                    (ex * ex + ey * ey) * inv_sigma2 <= CHI2_2DOF
                 }
-            }
+            };
             let best = self
                 .nearby
                 .iter()
+                .filter(|i| consistent(i))
                 .map(|&i| {
                     (
                         hamming(&point.descriptor, &keyframe.features.point_descriptors[i]),

@@ -176,6 +176,15 @@ impl Odometry {
                 mapping = Some(mapping_start.elapsed());
             }
         }
+        tracing::debug!(
+            frame = %frame.features.id,
+            status = %frame.status,
+            points = frame.inliers.points,
+            lines = frame.inliers.lines,
+            keyframe = mapping.is_some(),
+            keyframes = self.map.keyframe_count(),
+            "tracked"
+        );
         let total = start.elapsed();
         self.timings = OdometryTimings {
             tracking: total - mapping.unwrap_or_default(),
