@@ -15,7 +15,10 @@ pub struct Segment {
 impl Segment {
     /// A segment from (`u0`, `v0`) to (`u1`, `v1`).
     pub fn new(u0: f32, v0: f32, u1: f32, v1: f32) -> Self {
-        Self { start: [u0, v0], end: [u1, v1] }
+        Self {
+            start: [u0, v0],
+            end: [u1, v1],
+        }
     }
 
     /// Length in pixels.
@@ -25,7 +28,10 @@ impl Segment {
 
     /// Midpoint (u, v).
     pub fn midpoint(&self) -> [f32; 2] {
-        [0.5 * (self.start[0] + self.end[0]), 0.5 * (self.start[1] + self.end[1])]
+        [
+            0.5 * (self.start[0] + self.end[0]),
+            0.5 * (self.start[1] + self.end[1]),
+        ]
     }
 
     /// Direction angle of `end - start` in radians, in (-pi, pi].
