@@ -56,4 +56,4 @@ pub use scene::{Aabb, EdgeKind, MIN_CLEARANCE, Quad, Scene, SceneEdge, SceneKind
 pub use sequence::{SynthConfig, SynthFrame, SynthSequence, luma};
 pub use texture::{Poster, PosterItem, Rgb, Texture};
 pub use trajectory::TrajectoryKind;
-pub use tum::{cached_default_sequence, cached_sequence};
+pub use tum::cached_sequence;

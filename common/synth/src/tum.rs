@@ -182,15 +182,6 @@ fn write_png(
         })
 }
 
-/// The folder of the built-in default sequence (room, slow, 300 frames, seed 1, mild
-/// noise), rendering it on first use. See [`cached_sequence`].
-///
-/// # Errors
-/// As [`cached_sequence`].
-pub fn cached_default_sequence() -> Result<PathBuf, SynthError> {
-    cached_sequence(&SynthConfig::default(), |_| {})
-}
-
 /// The folder of the sequence of `config` in the user's cache
 /// (`$XDG_CACHE_HOME/gfsvo/` or `~/.cache/gfsvo/`, e.g.
 /// `synth_room_slow_300_seed1_r1`), rendering it first if absent. Rendering goes to a

@@ -41,7 +41,7 @@ pub struct RunArgs {
 pub fn run(args: &RunArgs) -> CliResult {
     let dataset = match &args.dataset {
         Some(dir) => dir.clone(),
-        None => gfs_synth::cached_default_sequence()?,
+        None => built_in_sequence(args.json)?,
     };
     let config = Config::load(args.config.as_deref(), &dataset)?;
     let camera = config.camera()?;
@@ -158,13 +158,24 @@ pub fn run(args: &RunArgs) -> CliResult {
     Ok(())
 }
 
+/// The built-in synthetic sequence, rendered into the cache on first use with a
+/// progress bar.
+fn built_in_sequence(quiet: bool) -> CliResult<PathBuf> {
+    let config = gfs_synth::SynthConfig::default();
+    let bar = progress_bar(config.frames as u64, quiet);
+    bar.set_message("rendering the built-in synthetic sequence (once)");
+    let dir = gfs_synth::cached_sequence(&config, |done| bar.set_position(done as u64))?;
+    bar.finish_and_clear();
+    Ok(dir)
+}
+
 fn progress_bar(total: u64, hidden: bool) -> ProgressBar {
     if hidden {
         return ProgressBar::hidden();
     }
     let bar = ProgressBar::new(total);
     if let Ok(style) =
-        ProgressStyle::with_template("{bar:40} {pos}/{len} frames {per_sec} eta {eta}")
+        ProgressStyle::with_template("{msg} {bar:40} {pos}/{len} frames {per_sec} eta {eta}")
     {
         bar.set_style(style);
     }
