@@ -133,7 +133,7 @@ impl LocalBundleAdjuster {
         self.line_ids.clear();
         let mut pose_index: IdMap<KeyFrameId, usize> = IdMap::default();
         let local: Vec<KeyFrameId> = std::iter::once(kf)
-            .chain(map.covisible(kf, 1).into_iter().map(|(k, _)| k))
+            .chain(map.connected(kf).into_iter().map(|(k, _)| k))
             .take(config.ba_keyframes.max(1))
             .collect();
         for id in &local {

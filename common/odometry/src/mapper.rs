@@ -15,9 +15,12 @@ use gfs_core::ids::{KeyFrameId, MapPointId};
 use gfs_points::KeyPointGrid;
 use nalgebra::Point3;
 
-/// Keyframes after which a recently created point must be seen by this many keyframes.
+/// Keyframes after which a recently created point must have more than
+/// `RECENT_POINT_MAX_WEAK_OBSERVATIONS` observations, one with depth counting twice
+/// (ORB-SLAM2 `MapPointCulling` for RGB-D: a stereo observation counts two, and points
+/// with at most 3 are dropped, so two keyframes with depth keep a point).
 const RECENT_POINT_KEYFRAMES: u64 = 2;
-const RECENT_POINT_MIN_OBSERVATIONS: usize = 3;
+const RECENT_POINT_MAX_WEAK_OBSERVATIONS: usize = 3;
 /// Found/visible ratio under which a recent landmark is dropped (ORB-SLAM2: 0.25).
 const MIN_FOUND_RATIO: f64 = 0.25;
 /// Search radius when fusing, pixels at level 0 (ORB-SLAM2 `Fuse`: 3 x scale).
@@ -201,9 +204,20 @@ impl Mapper {
         for id in std::mem::take(&mut self.recent_points) {
             let Some(p) = map.point(id) else { continue };
             let age = current.0.saturating_sub(p.first_kf.0);
+            let observations: usize = p
+                .observations
+                .iter()
+                .map(|(kf, i)| {
+                    let has_depth = map
+                        .keyframe(*kf)
+                        .and_then(|k| k.features.keypoints.get(*i as usize))
+                        .is_some_and(|kp| kp.depth > 0.0);
+                    1 + usize::from(has_depth)
+                })
+                .sum();
             if p.found_ratio() < MIN_FOUND_RATIO
                 || (age >= RECENT_POINT_KEYFRAMES
-                    && p.observations.len() < RECENT_POINT_MIN_OBSERVATIONS)
+                    && observations <= RECENT_POINT_MAX_WEAK_OBSERVATIONS)
             {
                 map.remove_point(id);
             } else if age < RECENT_POINT_KEYFRAMES + 1 {
@@ -228,7 +242,7 @@ impl Mapper {
     /// it (the point with more observations survives).
     fn fuse(&mut self, map: &mut Map, kf: KeyFrameId) {
         let neighbours: Vec<KeyFrameId> = map
-            .covisible(kf, 1)
+            .connected(kf)
             .into_iter()
             .take(FUSE_NEIGHBOURS)
             .map(|(k, _)| k)
@@ -323,7 +337,7 @@ impl Mapper {
     /// `redundant_observers` other keyframes (paper: redundancy on both feature kinds).
     fn cull_keyframes(&mut self, map: &mut Map, current: KeyFrameId) {
         let first = map.keyframe_ids().first().copied();
-        for (kf, _) in map.covisible(current, 1) {
+        for (kf, _) in map.connected(current) {
             if Some(kf) == first || kf == current {
                 continue;
             }

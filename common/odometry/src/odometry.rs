@@ -11,7 +11,7 @@ use crate::relocalise::relocalise;
 use crate::status::TrackingStatus;
 use crate::tracker::{TrackedFrame, Tracker};
 use gfs_core::camera::PinholeCamera;
-use gfs_core::ids::FrameId;
+use gfs_core::ids::{FrameId, KeyFrameId};
 use gfs_lines::grid::GridConfig;
 use nalgebra::{Isometry3, Rotation3};
 use std::time::{Duration, Instant};
@@ -147,6 +147,7 @@ impl Odometry {
         features.validate()?;
         let start = Instant::now();
         let mut mapping = None;
+        let mut refined = None;
         let mut frame = if self.initialised {
             self.tracker.track(&mut self.map, features)
         } else {
@@ -172,7 +173,8 @@ impl Odometry {
                 self.config.tracking.close_depth_m,
             ) {
                 let mapping_start = Instant::now();
-                self.insert_keyframe(&frame);
+                let kf = self.insert_keyframe(&frame);
+                refined = self.map.keyframe(kf).map(|k| k.camera_from_world);
                 mapping = Some(mapping_start.elapsed());
             }
         }
@@ -190,13 +192,21 @@ impl Odometry {
             tracking: total - mapping.unwrap_or_default(),
             mapping,
         };
+        // The local BA refined the new keyframe's pose together with the map it just
+        // moved: the frame takes that pose, and so does the next prediction, as
+        // ORB-SLAM2 places its last frame relative to its reference keyframe
+        // (`Tracking::UpdateLastFrame`).
+        let camera_from_world = refined.unwrap_or(frame.camera_from_world);
         let pose = FramePose {
             id: frame.features.id,
             timestamp: frame.features.timestamp,
-            world_from_camera: frame.camera_from_world.inverse(),
+            world_from_camera: camera_from_world.inverse(),
             status: frame.status,
         };
         self.tracker.finish_frame(frame);
+        if refined.is_some() {
+            self.tracker.correct_last_pose(camera_from_world);
+        }
         Ok(pose)
     }
 
@@ -260,11 +270,12 @@ impl Odometry {
         }
     }
 
-    fn insert_keyframe(&mut self, frame: &TrackedFrame) {
+    fn insert_keyframe(&mut self, frame: &TrackedFrame) -> KeyFrameId {
         let kf = self
             .mapper
             .add_keyframe(&mut self.map, frame, &mut self.manhattan);
         self.tracker.set_reference(kf);
         self.frames_since_keyframe = 0;
+        kf
     }
 }

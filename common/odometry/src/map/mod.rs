@@ -14,6 +14,10 @@ pub use point::MapPoint;
 
 use crate::frame::{Descriptor, hamming};
 use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
+
+/// Landmarks two keyframes must share to be connected in the covisibility graph
+/// (ORB-SLAM2 `KeyFrame::UpdateConnections`: 15).
+pub const COVISIBILITY_MIN_SHARED: u32 = 15;
 use nalgebra::Rotation3;
 
 /// Keyframes, landmarks and their links.
@@ -368,6 +372,19 @@ impl Map {
             .collect();
         out.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(b.0.cmp(&a.0)));
         out
+    }
+
+    /// The keyframes connected to `kf` in the covisibility graph: those sharing at least
+    /// [`COVISIBILITY_MIN_SHARED`] landmarks, strongest first, or the strongest one alone
+    /// when none does (ORB-SLAM2 `KeyFrame::UpdateConnections`).
+    pub fn connected(&self, kf: KeyFrameId) -> Vec<(KeyFrameId, u32)> {
+        let mut all = self.covisible(kf, 1);
+        let strong = all
+            .iter()
+            .take_while(|(_, n)| *n >= COVISIBILITY_MIN_SHARED)
+            .count();
+        all.truncate(strong.max(1));
+        all
     }
 
     /// Picks as the point's descriptor the observation with the least median Hamming
