@@ -115,7 +115,7 @@ fn textured_room_with_kinect_noise_is_tracked_within_a_centimetre() {
 }
 
 #[test]
-#[ignore = "issue 6 open: 2.7 cm ATE and 10 predicted frames on 120 frames (target 1 cm, none lost)"]
+#[ignore = "issue 6 open: 2.2 cm ATE and 5 predicted frames on 120 frames (target 1 cm, none lost)"]
 fn fast_motion_is_tracked_within_a_centimetre() {
     let r = run(
         SceneKind::Room,
@@ -129,7 +129,6 @@ fn fast_motion_is_tracked_within_a_centimetre() {
 }
 
 #[test]
-#[ignore = "issue 6 open: 1.15 cm ATE on 120 frames (target 1 cm)"]
 fn mostly_rotation_is_tracked_within_a_centimetre() {
     let r = run(
         SceneKind::Room,
@@ -143,7 +142,7 @@ fn mostly_rotation_is_tracked_within_a_centimetre() {
 }
 
 #[test]
-#[ignore = "issue 6 open: 5.5 cm ATE on 120 frames (target 1 cm)"]
+#[ignore = "issue 6 open: 5.9 cm ATE on 120 frames (target 1 cm)"]
 fn low_texture_room_stays_within_a_centimetre() {
     let r = run(
         SceneKind::LowTexture,

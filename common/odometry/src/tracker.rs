@@ -198,10 +198,10 @@ impl Tracker {
         self.local_lines.extend(last.line_ids.iter().flatten());
         let pose = frame.camera_from_world;
         let radius = self.config.points.radius_last_frame;
-        let mut matched = self.search_points(map, &pose, frame, radius, false);
+        let mut matched = self.search_points(map, &pose, frame, radius, false, false);
         if matched < RETRY_WIDER_BELOW {
             frame.point_ids.iter_mut().for_each(|m| *m = None);
-            matched = self.search_points(map, &pose, frame, 2.0 * radius, false);
+            matched = self.search_points(map, &pose, frame, 2.0 * radius, false, false);
         }
         matched += self.search_lines(map, &pose, frame, false);
         if matched < self.config.min_inliers / 2 {
@@ -288,7 +288,8 @@ impl Tracker {
         // Rotation consistency is only meaningful for matches against one other view.
         let check = self.config.points.check_orientation;
         self.config.points.check_orientation = false;
-        self.search_points(map, &pose, frame, self.config.points.radius_local_map, true);
+        let radius = self.config.points.radius_local_map;
+        self.search_points(map, &pose, frame, radius, true, true);
         self.config.points.check_orientation = check;
         self.search_lines(map, &pose, frame, true);
         let inliers = self.optimise(map, frame);
@@ -368,6 +369,7 @@ impl Tracker {
         pose: &Isometry3<f64>,
         frame: &mut TrackedFrame,
         radius: f64,
+        by_viewing_angle: bool,
         count_visible: bool,
     ) -> usize {
         self.point_matcher.search(
@@ -379,6 +381,7 @@ impl Tracker {
             &self.point_grid,
             &self.scale,
             radius,
+            by_viewing_angle,
             &self.config.points,
             count_visible,
             &mut frame.point_ids,

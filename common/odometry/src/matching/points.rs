@@ -21,7 +21,10 @@ pub struct PointMatchConfig {
     /// Search radius at level 0 when tracking the last frame, pixels (scaled by the
     /// level's scale). Default 15 (ORB-SLAM2, RGB-D).
     pub radius_last_frame: f64,
-    /// Search radius at level 0 when tracking the local map, pixels. Default 4.
+    /// Search radius factor when tracking the local map (ORB-SLAM2 `SearchLocalPoints`
+    /// `th`: 3 for RGB-D); the radius at level 0 is this times 2.5 px for a point seen
+    /// within 3.6 degrees of its mean viewing direction, 4 px otherwise
+    /// (`RadiusByViewingCos`). Default 3.
     pub radius_local_map: f64,
     /// Keep only matches whose orientation change agrees with the three dominant ones
     /// (rotation-consistency histogram). Default true.
@@ -34,11 +37,17 @@ impl Default for PointMatchConfig {
             max_distance: 100,
             ratio: 0.8,
             radius_last_frame: 15.0,
-            radius_local_map: 4.0,
+            radius_local_map: 3.0,
             check_orientation: true,
         }
     }
 }
+
+/// ORB-SLAM2 `RadiusByViewingCos`: a point seen within this cosine of its mean viewing
+/// direction (3.6 degrees) is searched in a smaller radius, pixels at level 0.
+const CLOSE_VIEW_COS: f64 = 0.998;
+const CLOSE_VIEW_RADIUS_PX: f64 = 2.5;
+const WIDE_VIEW_RADIUS_PX: f64 = 4.0;
 
 /// A map point to look for, with the keypoint angle it was seen at (for the
 /// orientation check), if known.
@@ -61,7 +70,8 @@ pub struct PointProjectionMatcher {
 
 impl PointProjectionMatcher {
     /// Projects each candidate with `camera_from_world` and links it to the closest
-    /// free keypoint within `radius` (level 0 pixels, scaled per level). `matches[i]`
+    /// free keypoint within `radius` (level 0 pixels, scaled per level; with
+    /// `by_viewing_angle`, `radius` is a factor of ORB-SLAM2's `RadiusByViewingCos`). `matches[i]`
     /// is set for keypoint `i`; already set entries are kept. Returns the number of new
     /// matches. Candidates not in front of the camera, outside the image, or out of
     /// their scale range are skipped; each candidate that projects into the image counts
@@ -77,6 +87,7 @@ impl PointProjectionMatcher {
         grid: &KeyPointGrid,
         scale: &ScalePyramid,
         radius: f64,
+        by_viewing_angle: bool,
         config: &PointMatchConfig,
         count_visible: bool,
         matches: &mut [Option<MapPointId>],
@@ -112,7 +123,14 @@ impl PointProjectionMatcher {
                 point.visible += 1;
             }
             let level = point.predict_level(distance, scale.log_scale, scale.levels);
-            let level_radius = radius * scale.factor(level);
+            let view_radius = if !by_viewing_angle {
+                1.0
+            } else if -to_point.dot(&point.normal) > CLOSE_VIEW_COS * distance {
+                CLOSE_VIEW_RADIUS_PX
+            } else {
+                WIDE_VIEW_RADIUS_PX
+            };
+            let level_radius = radius * view_radius * scale.factor(level);
             let (min_level, max_level) = (level.saturating_sub(1), level + 1);
             grid.features_in_area(
                 uv.x as f32,
