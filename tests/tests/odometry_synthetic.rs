@@ -142,7 +142,7 @@ fn mostly_rotation_is_tracked_within_a_centimetre() {
 }
 
 #[test]
-#[ignore = "issue 6 open: 5.9 cm ATE on 120 frames (target 1 cm)"]
+#[ignore = "issue 6 open: 4.7 cm ATE on 120 frames (target 1 cm)"]
 fn low_texture_room_stays_within_a_centimetre() {
     let r = run(
         SceneKind::LowTexture,
