@@ -133,14 +133,13 @@ impl Mapper {
             .map(|(i, kp)| (kp.depth, i))
             .collect();
         by_depth.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-        let descriptors = keyframe.features.point_descriptors.clone();
-        let keypoints = keyframe.features.keypoints.clone();
         let centre = world_from_camera.translation.vector;
+        let mut new_points = Vec::new();
         for (n, (depth, i)) in by_depth.into_iter().enumerate() {
             if depth > self.close_depth_m && n >= self.config.min_new_points {
                 break;
             }
-            let kp = &keypoints[i];
+            let kp = &keyframe.features.keypoints[i];
             let p_c = self
                 .camera
                 .back_project(f64::from(kp.u), f64::from(kp.v), f64::from(depth));
@@ -150,7 +149,7 @@ impl Mapper {
             let max_distance = distance * self.scale.factor(kp.level as u8);
             let point = MapPoint {
                 position,
-                descriptor: descriptors[i],
+                descriptor: keyframe.features.point_descriptors[i],
                 observations: Vec::new(),
                 normal: to_camera / distance.max(1e-9),
                 max_distance,
@@ -159,6 +158,9 @@ impl Mapper {
                 visible: 1,
                 found: 1,
             };
+            new_points.push((i, point));
+        }
+        for (i, point) in new_points {
             if let Some(id) = map.insert_point(point, kf, i) {
                 self.recent_points.push(id);
             }

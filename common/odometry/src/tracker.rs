@@ -270,12 +270,14 @@ impl Tracker {
             let Some(keyframe) = map.keyframe(*kf) else {
                 continue;
             };
-            for (i, id) in keyframe.point_ids.iter().enumerate() {
-                if let Some(id) = id
-                    && seen_points.insert(*id, ()).is_none()
-                {
-                    let angle = keyframe.features.keypoints.get(i).map(|k| k.angle);
-                    self.candidates.push(ProjectionCandidate { id: *id, angle });
+            for id in keyframe.point_ids.iter().flatten() {
+                // No angle: rotation consistency is only meaningful for matches against
+                // one other view, so the local map skips the orientation check.
+                if seen_points.insert(*id, ()).is_none() {
+                    self.candidates.push(ProjectionCandidate {
+                        id: *id,
+                        angle: None,
+                    });
                 }
             }
             for id in keyframe.line_ids.iter().flatten() {
@@ -285,12 +287,8 @@ impl Tracker {
             }
         }
         let pose = frame.camera_from_world;
-        // Rotation consistency is only meaningful for matches against one other view.
-        let check = self.config.points.check_orientation;
-        self.config.points.check_orientation = false;
         let radius = self.config.points.radius_local_map;
         self.search_points(map, &pose, frame, radius, true, true);
-        self.config.points.check_orientation = check;
         self.search_lines(map, &pose, frame, true);
         let inliers = self.optimise(map, frame);
         for id in frame.point_ids.iter().flatten() {
