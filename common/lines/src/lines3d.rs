@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 
 /// A 3D segment in the camera frame (metres), from the 2D `start` to the 2D `end`.
 /// Plain `#[repr(C)]` data (28 bytes, no padding) for zero-copy messages.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[repr(C)]
 pub struct Line3 {
     /// 3D point on the ray of the 2D start point, camera frame, metres.

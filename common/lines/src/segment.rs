@@ -3,7 +3,7 @@
 /// A segment in undistorted pixel coordinates (u, v), from `start` to `end`.
 ///
 /// Plain `#[repr(C)]` data so that it can travel in a zero-copy message.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[repr(C)]
 pub struct Segment {
     /// First endpoint (u, v), pixels.
@@ -54,7 +54,7 @@ impl Segment {
 }
 
 /// A detected segment with the evidence the homogenisation ranks it by.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[repr(C)]
 pub struct DetectedLine {
     /// The segment, pixels.

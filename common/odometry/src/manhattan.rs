@@ -13,7 +13,7 @@ const MATCH_COS: f64 = 0.985;
 const REFINE_RATE: f64 = 0.05;
 
 /// The world Manhattan frame, if the scene has shown one.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct WorldManhattan {
     axes: Option<Rotation3<f64>>,
     enabled: bool,

@@ -3,7 +3,7 @@
 use nalgebra::Isometry3;
 
 /// Predicts `camera_from_world` of the next frame from the last two.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct MotionModel {
     last: Option<Isometry3<f64>>,
     /// `current_from_previous` of the last tracked step.

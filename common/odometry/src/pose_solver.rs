@@ -12,7 +12,7 @@ use gfs_optim::{
 use nalgebra::{Isometry3, Vector2, Vector3};
 
 /// Inlier counts of a pose optimisation.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Inliers {
     /// Map points whose reprojection error passed the chi-square test.
     pub points: usize,

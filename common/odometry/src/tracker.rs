@@ -19,7 +19,7 @@ use gfs_points::KeyPointGrid;
 use nalgebra::Isometry3;
 
 /// The result of tracking one frame.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct TrackedFrame {
     /// The frame's features.
     pub features: FrameFeatures,

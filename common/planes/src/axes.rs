@@ -4,7 +4,7 @@
 use nalgebra::{Matrix3, Rotation3, SVD, Vector3};
 
 /// The three Manhattan axes of a frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ManhattanAxes {
     /// `camera_from_manhattan`: column `i` is axis `i` in the camera frame. Axis `i`
     /// keeps its identity and sign from frame to frame (see

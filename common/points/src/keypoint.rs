@@ -7,7 +7,7 @@ pub type Descriptor = [u64; 4];
 
 /// One ORB keypoint.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct KeyPoint {
     /// Column in level-0 undistorted pixels (pixel centres at integers).
     pub u: f32,

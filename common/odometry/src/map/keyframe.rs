@@ -5,7 +5,7 @@ use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
 use nalgebra::Isometry3;
 
 /// A frame kept in the map.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct KeyFrame {
     /// Its id.
     pub id: KeyFrameId,

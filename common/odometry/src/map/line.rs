@@ -5,7 +5,7 @@ use gfs_core::ids::KeyFrameId;
 use nalgebra::{Point3, Vector3};
 
 /// A landmark segment with its observations and its Manhattan axis.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct MapLine {
     /// First endpoint in the world, metres.
     pub start: Point3<f64>,

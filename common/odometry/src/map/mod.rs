@@ -21,7 +21,7 @@ pub const COVISIBILITY_MIN_SHARED: u32 = 15;
 use nalgebra::Rotation3;
 
 /// Keyframes, landmarks and their links.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Map {
     keyframes: IdMap<KeyFrameId, KeyFrame>,
     points: IdMap<MapPointId, MapPoint>,

@@ -5,7 +5,7 @@ use gfs_core::ids::KeyFrameId;
 use nalgebra::{Point3, Vector3};
 
 /// A landmark point with its observations and the statistics used to cull it.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct MapPoint {
     /// Position in the world, metres.
     pub position: Point3<f64>,
