@@ -66,8 +66,11 @@ impl Stage {
 }
 
 /// When one stage handled the message, in CLOCK_MONOTONIC nanoseconds
-/// ([`crate::monotonic_ns`]); 0 = not stamped.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ZeroCopySend)]
+/// ([`crate::monotonic_ns`]); 0 = not stamped. Serde form (in a [`crate::profile`]):
+/// `{"received_ns": .., "started_ns": .., "finished_ns": ..}`.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, ZeroCopySend, serde::Serialize, serde::Deserialize,
+)]
 #[type_name("gfsvo::StageStamp")]
 #[repr(C)]
 pub struct StageStamp {

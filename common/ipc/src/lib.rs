@@ -22,6 +22,8 @@
 //!   malformed one is logged and dropped.
 //! - The same code runs between processes ([`ipc::Service`]) or between threads of one
 //!   process ([`local::Service`]): every port is generic over the [`Service`] variant.
+//! - [`profile`]: the per-frame stage stamps of a run gathered by the recorder, as
+//!   `profile.json`, with median / p90 / p99 / max per stage.
 //! - Wake-ups: each topic also has an iceoryx2 event service; a publisher notifies it on
 //!   every send and [`TopicSubscriber::wait`] sleeps until then (bounded by a timeout).
 //! - Wire structs for features are defined by the services as `#[repr(C)]` types with
@@ -85,6 +87,7 @@ mod error;
 pub mod frame;
 mod header;
 mod messages;
+pub mod profile;
 mod qos;
 mod run;
 mod topic;
@@ -96,6 +99,7 @@ pub use error::IpcError;
 pub use frame::{FrameError, FrameImages, FrameLayout, FrameView, FrameViewMut};
 pub use header::{MsgHeader, Stage, StageStamp};
 pub use messages::{frame_view, frame_view_mut};
+pub use profile::{Profile, ProfileError, ProfileSummary};
 pub use qos::{Mode, TopicKind, TopicQos};
 pub use run::{
     CleanupReport, IPC_ROOT, IpcRun, MAX_RUN_ID_LEN, NodeInfo, RUN_ID_ENV, RunId, SHM_DIR,
