@@ -18,7 +18,8 @@
 //! the same world frame.
 //!
 //! **Use.** [`Odometry::process`] runs tracking and mapping in the caller's thread; the
-//! pipeline runs the [`Tracker`] and the [`Mapper`] as two services. [`Frontend`]
+//! pipeline runs the two halves of [`session`] as two services that exchange keyframe
+//! requests and map snapshots (the same messages the in-process path passes by value). [`Frontend`]
 //! extracts the features of a frame in-process.
 #![warn(missing_docs)]
 
@@ -35,6 +36,7 @@ mod motion;
 mod odometry;
 mod pose_solver;
 mod relocalise;
+pub mod session;
 mod status;
 mod tracker;
 
@@ -45,8 +47,9 @@ pub use keyframe_policy::needs_keyframe;
 pub use manhattan::WorldManhattan;
 pub use mapper::Mapper;
 pub use motion::MotionModel;
-pub use odometry::{FramePose, Odometry, OdometryTimings};
+pub use odometry::{Odometry, OdometryTimings};
 pub use pose_solver::Inliers;
 pub use relocalise::{Relocalisation, relocalise};
+pub use session::FramePose;
 pub use status::TrackingStatus;
 pub use tracker::{TrackedFrame, Tracker};

@@ -3,6 +3,7 @@
 //! pipeline, the [`crate::Odometry`] in-process); the tracker reads it.
 
 mod arena;
+mod canonical;
 mod keyframe;
 mod line;
 mod point;

@@ -1,0 +1,100 @@
+//! The mapping half of the odometry (the `mapper` service): owns the map, turns keyframe
+//! requests into keyframes with local mapping, and answers each with the map.
+
+use super::messages::{KeyFrameRequest, MapUpdate, MapUpdateRef};
+use super::sightings::apply_sightings;
+use crate::config::OdometryConfig;
+use crate::manhattan::WorldManhattan;
+use crate::map::Map;
+use crate::mapper::Mapper;
+use crate::matching::ScalePyramid;
+use gfs_core::camera::PinholeCamera;
+use gfs_core::ids::KeyFrameId;
+
+/// Owns the map and runs local mapping on keyframe requests.
+pub struct MappingSession {
+    mapper: Mapper,
+    map: Map,
+    manhattan: WorldManhattan,
+    last_applied: u64,
+    last_keyframe: Option<KeyFrameId>,
+}
+
+impl MappingSession {
+    /// A mapping half for an undistorted `camera` whose ORB pyramid has `levels` levels
+    /// `scale_factor` apart.
+    pub fn new(
+        config: &OdometryConfig,
+        camera: PinholeCamera,
+        scale_factor: f64,
+        levels: u8,
+    ) -> Self {
+        Self {
+            mapper: Mapper::new(
+                config.mapping.clone(),
+                config.keyframes.clone(),
+                camera,
+                ScalePyramid::new(scale_factor, levels),
+                config.tracking.close_depth_m,
+                config.tracking.use_lines,
+            ),
+            manhattan: WorldManhattan::new(config.tracking.use_manhattan),
+            map: Map::default(),
+            last_applied: 0,
+            last_keyframe: None,
+        }
+    }
+
+    /// The map.
+    pub fn map(&self) -> &Map {
+        &self.map
+    }
+
+    /// The number of the last request applied (0 before the first).
+    pub fn last_applied(&self) -> u64 {
+        self.last_applied
+    }
+
+    /// Makes the request's frame a keyframe and runs local mapping, unless a request
+    /// with this number was applied already (a request sent again after a restart).
+    /// Returns the map to send back.
+    pub fn insert(&mut self, request: KeyFrameRequest) -> MapUpdateRef<'_> {
+        if request.seq > self.last_applied {
+            if request.reset {
+                for kf in self.map.keyframe_ids() {
+                    self.map.remove_keyframe(kf);
+                }
+            }
+            apply_sightings(
+                &mut self.map,
+                &request.point_sightings,
+                &request.line_sightings,
+            );
+            self.manhattan = request.manhattan;
+            let kf = self
+                .mapper
+                .add_keyframe(&mut self.map, &request.frame, &mut self.manhattan);
+            self.last_applied = request.seq;
+            self.last_keyframe = Some(kf);
+        }
+        self.update()
+    }
+
+    /// The map as it stands, answering the last request applied.
+    pub fn update(&self) -> MapUpdateRef<'_> {
+        MapUpdateRef {
+            seq: self.last_applied,
+            keyframe: self.last_keyframe,
+            map: &self.map,
+            manhattan: &self.manhattan,
+        }
+    }
+
+    /// Resumes from the last map the old mapper sent (its checkpoint).
+    pub fn restore(&mut self, update: MapUpdate) {
+        self.last_applied = update.seq;
+        self.last_keyframe = update.keyframe;
+        self.map = update.map;
+        self.manhattan = update.manhattan;
+    }
+}

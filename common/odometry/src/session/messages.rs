@@ -1,0 +1,78 @@
+//! What the tracking half and the mapping half of the odometry tell each other: a
+//! keyframe request one way, the map after local mapping the other way. Both are plain
+//! serde values; the pipeline sends them as bincode, the in-process odometry by value.
+
+use crate::manhattan::WorldManhattan;
+use crate::map::Map;
+use crate::tracker::TrackedFrame;
+use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
+use serde::{Deserialize, Serialize};
+
+/// How often the tracker predicted and matched a landmark since the map it tracks was
+/// published: the mapper culls landmarks on these counts (`found / visible`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SightingCount<I> {
+    /// The landmark.
+    pub id: I,
+    /// Frames in whose view it was predicted to be.
+    pub visible: u32,
+    /// Frames in which it was matched.
+    pub found: u32,
+}
+
+/// The tracker asks the mapper to make a frame a keyframe.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct KeyFrameRequest {
+    /// Request number, counting from 1; the mapper applies each number once, so a
+    /// request sent again after a restart is harmless.
+    pub seq: u64,
+    /// The tracked frame with its landmark links.
+    pub frame: TrackedFrame,
+    /// The tracker's world Manhattan axes (it refines them on every tracked frame).
+    pub manhattan: WorldManhattan,
+    /// Drop every keyframe first: tracking was lost and a new local map starts here.
+    pub reset: bool,
+    /// Point sightings since the last map the tracker received.
+    pub point_sightings: Vec<SightingCount<MapPointId>>,
+    /// Line sightings since the last map the tracker received.
+    pub line_sightings: Vec<SightingCount<MapLineId>>,
+}
+
+/// The mapper's answer to a request: the whole (bounded) map after local mapping.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct MapUpdate {
+    /// The request this answers.
+    pub seq: u64,
+    /// The keyframe made from the request's frame (`None` when the request was a
+    /// duplicate of one already applied).
+    pub keyframe: Option<KeyFrameId>,
+    /// The map.
+    pub map: Map,
+    /// The world Manhattan axes after mapping.
+    pub manhattan: WorldManhattan,
+}
+
+/// [`MapUpdate`] borrowed from the mapper, to encode without copying the map.
+#[derive(Debug, Serialize)]
+pub struct MapUpdateRef<'a> {
+    /// See [`MapUpdate::seq`].
+    pub seq: u64,
+    /// See [`MapUpdate::keyframe`].
+    pub keyframe: Option<KeyFrameId>,
+    /// See [`MapUpdate::map`].
+    pub map: &'a Map,
+    /// See [`MapUpdate::manhattan`].
+    pub manhattan: &'a WorldManhattan,
+}
+
+impl MapUpdateRef<'_> {
+    /// An owned copy.
+    pub fn to_owned(&self) -> MapUpdate {
+        MapUpdate {
+            seq: self.seq,
+            keyframe: self.keyframe,
+            map: self.map.clone(),
+            manhattan: self.manhattan.clone(),
+        }
+    }
+}

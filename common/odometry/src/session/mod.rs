@@ -1,0 +1,14 @@
+//! The odometry in two halves that talk by messages: [`TrackingSession`] tracks every
+//! frame and asks for keyframes ([`KeyFrameRequest`]); [`MappingSession`] owns the map,
+//! runs local mapping and answers with the map ([`MapUpdate`]). The `tracker` and
+//! `mapper` services each run one half; [`crate::Odometry`] runs both in one thread
+//! with the same messages, so both paths give the same poses.
+
+mod mapping;
+mod messages;
+mod sightings;
+mod tracking;
+
+pub use mapping::MappingSession;
+pub use messages::{KeyFrameRequest, MapUpdate, MapUpdateRef, SightingCount};
+pub use tracking::{FramePose, TrackOutput, TrackingCheckpoint, TrackingSession};
