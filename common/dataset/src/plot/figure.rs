@@ -14,7 +14,7 @@ const EST_COLOR: Rgb = [235, 110, 20];
 const ERROR_COLOR: Rgb = [200, 30, 30];
 const TEXT_COLOR: Rgb = [20, 20, 20];
 /// Smallest image side that leaves room for labels.
-const MIN_SIDE: usize = 200;
+pub(super) const MIN_SIDE: usize = 200;
 
 /// `[plot]` settings of the evaluation figure.
 #[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
@@ -216,7 +216,14 @@ pub fn write_evaluation_png(
     path: &Path,
     config: &PlotConfig,
 ) -> Result<(), PlotError> {
-    let image = render_evaluation(eval, config)?;
+    save_png(&render_evaluation(eval, config)?, path)
+}
+
+/// Writes `image` as a PNG to `path`.
+///
+/// # Errors
+/// [`PlotError::Write`] naming the file that could not be encoded or written.
+pub(super) fn save_png(image: &RgbImage, path: &Path) -> Result<(), PlotError> {
     image::save_buffer_with_format(
         path,
         image.as_slice().as_flattened(),
