@@ -40,9 +40,10 @@ impl FrameReader {
     pub(crate) fn spawn(
         decoder: FrameDecoder,
         entries: Arc<[Entry]>,
-        total: usize,
+        range: std::ops::Range<usize>,
         ahead: usize,
     ) -> Self {
+        let (start, total) = (range.start.min(range.end), range.end);
         let (tx, rx) = std::sync::mpsc::sync_channel(ahead.max(1));
         let (recycle_tx, recycle_rx) = std::sync::mpsc::channel();
         let stop = Arc::new(AtomicBool::new(false));
@@ -55,7 +56,7 @@ impl FrameReader {
                 decode_loop(
                     decoder,
                     &thread_entries,
-                    total,
+                    start..total,
                     &tx,
                     &recycle_rx,
                     &thread_stop,
@@ -76,7 +77,7 @@ impl FrameReader {
         };
         Self {
             source,
-            next: 0,
+            next: start,
             total,
         }
     }
@@ -99,12 +100,12 @@ impl FrameReader {
 fn decode_loop(
     mut decoder: FrameDecoder,
     entries: &[Entry],
-    total: usize,
+    range: std::ops::Range<usize>,
     tx: &SyncSender<Item>,
     recycled: &Receiver<Frame>,
     stop: &AtomicBool,
 ) {
-    for (index, entry) in entries.iter().enumerate().take(total) {
+    for (index, entry) in entries.iter().enumerate().take(range.end).skip(range.start) {
         if stop.load(Ordering::Relaxed) {
             return;
         }
@@ -146,7 +147,7 @@ impl Iterator for FrameReader {
     }
 
     fn size_hint(&self) -> (usize, Option<usize>) {
-        let left = self.total - self.next;
+        let left = self.total.saturating_sub(self.next);
         (left, Some(left))
     }
 }

@@ -115,8 +115,19 @@ impl Sequence {
 
     /// [`Sequence::frames`] with `ahead` frames decoded ahead of use (at least 1).
     pub fn frames_ahead(&self, limit: Option<usize>, ahead: usize) -> FrameReader {
+        self.frames_from(0, limit, ahead)
+    }
+
+    /// [`Sequence::frames_ahead`] starting at frame `start` (a restarted source resumes
+    /// there); `limit` still counts from frame 0.
+    pub fn frames_from(&self, start: usize, limit: Option<usize>, ahead: usize) -> FrameReader {
         let total = limit.map_or(self.len(), |l| l.min(self.len()));
-        FrameReader::spawn(self.decoder(), Arc::clone(&self.entries), total, ahead)
+        FrameReader::spawn(
+            self.decoder(),
+            Arc::clone(&self.entries),
+            start..total,
+            ahead,
+        )
     }
 
     /// Decodes frame `index` on this thread.

@@ -6,8 +6,9 @@ use crate::frame::FrameFeatures;
 use gfs_core::ImageView;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::FrameId;
+use gfs_lines::Line3;
 use gfs_lines::extractor::{LineConfig, LineExtractor, LineFeatures};
-use gfs_planes::{ManhattanEstimator, Plane, PlaneConfig, PlaneExtractor};
+use gfs_planes::{ManhattanAxes, ManhattanEstimator, Plane, PlaneConfig, PlaneExtractor};
 use gfs_points::{OrbConfig, OrbExtractor, OrbFeatures};
 use nalgebra::{Rotation3, Vector3};
 use std::time::{Duration, Instant};
@@ -34,6 +35,64 @@ pub struct FrontendTimings {
     pub planes: Duration,
 }
 
+/// Plane normals and the frame's Manhattan axes from its planes and 3D lines (the
+/// `planes` stage), with reusable scratch.
+pub struct StructureExtractor {
+    planes: PlaneExtractor,
+    plane_out: Vec<Plane>,
+    manhattan: ManhattanEstimator,
+    directions: Vec<Vector3<f32>>,
+    weights: Vec<f32>,
+}
+
+impl StructureExtractor {
+    /// The extractor for `config`.
+    ///
+    /// # Errors
+    /// [`FrontendError::Planes`] when the config is invalid.
+    pub fn new(config: &PlaneConfig) -> Result<Self, FrontendError> {
+        Ok(Self {
+            planes: PlaneExtractor::new(config)
+                .map_err(|e| FrontendError::Planes(e.to_string()))?,
+            manhattan: ManhattanEstimator::new(config)
+                .map_err(|e| FrontendError::Planes(e.to_string()))?,
+            plane_out: Vec::new(),
+            directions: Vec::new(),
+            weights: Vec::new(),
+        })
+    }
+
+    /// The Manhattan axes of a frame from its depth and its valid 3D lines (camera
+    /// frame); `predicted_rotation` (`current_from_previous`) keeps the axes' identity.
+    ///
+    /// # Errors
+    /// [`FrontendError::Planes`] when the depth image does not have the camera's size.
+    pub fn extract(
+        &mut self,
+        depth: &ImageView<'_, f32>,
+        camera: &PinholeCamera,
+        lines3d: &[Line3],
+        predicted_rotation: Option<&Rotation3<f64>>,
+    ) -> Result<Option<ManhattanAxes>, FrontendError> {
+        self.planes
+            .extract(depth, camera, &mut self.plane_out)
+            .map_err(|e| FrontendError::Planes(e.to_string()))?;
+        self.directions.clear();
+        self.weights.clear();
+        for l in lines3d.iter().filter(|l| l.is_valid()) {
+            let d = Vector3::from(l.end) - Vector3::from(l.start);
+            self.weights.push(d.norm());
+            self.directions.push(d);
+        }
+        Ok(self.manhattan.estimate(
+            &self.plane_out,
+            &self.directions,
+            &self.weights,
+            predicted_rotation,
+        ))
+    }
+}
+
 /// Points, lines and planes extractors with their reusable scratch.
 pub struct Frontend {
     camera: PinholeCamera,
@@ -43,11 +102,7 @@ pub struct Frontend {
     orb_out: OrbFeatures,
     lines: LineExtractor,
     line_out: LineFeatures,
-    planes: PlaneExtractor,
-    plane_out: Vec<Plane>,
-    manhattan: ManhattanEstimator,
-    directions: Vec<Vector3<f32>>,
-    weights: Vec<f32>,
+    structure: StructureExtractor,
     timings: FrontendTimings,
 }
 
@@ -69,15 +124,9 @@ impl Frontend {
             orb: OrbExtractor::new(points.clone())
                 .map_err(|e| FrontendError::Points(e.to_string()))?,
             lines: LineExtractor::new(lines.clone()),
-            planes: PlaneExtractor::new(planes)
-                .map_err(|e| FrontendError::Planes(e.to_string()))?,
-            manhattan: ManhattanEstimator::new(planes)
-                .map_err(|e| FrontendError::Planes(e.to_string()))?,
+            structure: StructureExtractor::new(planes)?,
             orb_out: OrbFeatures::default(),
             line_out: LineFeatures::default(),
-            plane_out: Vec::new(),
-            directions: Vec::new(),
-            weights: Vec::new(),
             timings: FrontendTimings::default(),
             camera,
             use_lines,
@@ -116,22 +165,12 @@ impl Frontend {
         let lines_done = Instant::now();
         let mut manhattan = None;
         if self.use_manhattan {
-            self.planes
-                .extract(&depth, &self.camera, &mut self.plane_out)
-                .map_err(|e| FrontendError::Planes(e.to_string()))?;
-            self.directions.clear();
-            self.weights.clear();
-            for l in self.line_out.lines3d.iter().filter(|l| l.is_valid()) {
-                let d = Vector3::from(l.end) - Vector3::from(l.start);
-                self.weights.push(d.norm());
-                self.directions.push(d);
-            }
-            manhattan = self.manhattan.estimate(
-                &self.plane_out,
-                &self.directions,
-                &self.weights,
+            manhattan = self.structure.extract(
+                &depth,
+                &self.camera,
+                &self.line_out.lines3d,
                 predicted_rotation,
-            );
+            )?;
         }
         self.timings = FrontendTimings {
             points: points_done - start,

@@ -42,7 +42,7 @@ mod tracker;
 
 pub use config::{KeyframeConfig, MappingConfig, OdometryConfig, TrackingConfig};
 pub use frame::{FeatureError, FrameFeatures};
-pub use frontend::{Frontend, FrontendError, FrontendTimings};
+pub use frontend::{Frontend, FrontendError, FrontendTimings, StructureExtractor};
 pub use keyframe_policy::needs_keyframe;
 pub use manhattan::WorldManhattan;
 pub use mapper::Mapper;

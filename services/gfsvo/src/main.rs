@@ -4,7 +4,7 @@
 
 mod bench;
 mod cmd;
-mod config;
+use gfs_pipeline::config;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

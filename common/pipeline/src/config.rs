@@ -35,6 +35,42 @@ pub struct Config {
     /// `[mapping]`: landmark creation and the local BA.
     #[serde(default)]
     pub mapping: gfs_odometry::MappingConfig,
+    /// `[pipeline]`: deadlines, resends and the restart policy of the stage services.
+    #[serde(default)]
+    pub pipeline: PipelineConfig,
+}
+
+/// `[pipeline]`: how long stages wait for each other and how dead stages are restarted.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PipelineConfig {
+    /// Lockstep: how long the tracker waits for a frame's missing feature message before
+    /// it tracks the frame without it (degraded), ms. Long enough for a killed stage to
+    /// be restarted and to deliver the frame again from history. Default 3000.
+    pub lockstep_feature_deadline_ms: u64,
+    /// Realtime: the same deadline, ms; short, so that a dead stage costs a few frames'
+    /// quality, not the camera rate. Default 150.
+    pub realtime_feature_deadline_ms: u64,
+    /// A request still unanswered after this long is sent again (a keyframe to a
+    /// restarted mapper, a frame to restarted front-end stages), ms. Default 4000.
+    pub resend_after_ms: u64,
+    /// Restarts of one stage within `restart_window_s` after which the supervisor gives
+    /// up on the run. Default 5.
+    pub max_restarts: u32,
+    /// The window of `max_restarts`, seconds. Default 30.
+    pub restart_window_s: u64,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        Self {
+            lockstep_feature_deadline_ms: 3000,
+            realtime_feature_deadline_ms: 150,
+            resend_after_ms: 4000,
+            max_restarts: 5,
+            restart_window_s: 30,
+        }
+    }
 }
 
 /// The built-in configs, by name (the file stem in `configs/`).

@@ -1,0 +1,184 @@
+//! The tracker's join of the three feature messages of a frame (points, lines,
+//! Manhattan axes) by frame id, with a deadline for a message that does not come.
+
+use crate::wire::{WireKeyPoint, WireLine, WireManhattan};
+use gfs_core::ids::FrameId;
+use gfs_ipc::MsgHeader;
+use gfs_odometry::FrameFeatures;
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+/// What arrived for one frame so far.
+struct Pending {
+    header: MsgHeader,
+    first_seen: Instant,
+    features: FrameFeatures,
+    points: bool,
+    lines: bool,
+    manhattan: bool,
+}
+
+/// A frame ready for tracking.
+pub struct Joined {
+    /// The header with the stamps of every stage the parts passed.
+    pub header: MsgHeader,
+    /// The features (empty where a part is missing).
+    pub features: FrameFeatures,
+    /// True when a part did not arrive before the deadline.
+    pub incomplete: bool,
+}
+
+/// Frames waiting for their parts, by id.
+#[derive(Default)]
+pub struct FrameJoin {
+    pending: BTreeMap<u64, Pending>,
+}
+
+impl FrameJoin {
+    fn entry(&mut self, header: &MsgHeader) -> &mut Pending {
+        let pending = self
+            .pending
+            .entry(header.frame_id)
+            .or_insert_with(|| Pending {
+                header: *header,
+                first_seen: Instant::now(),
+                features: FrameFeatures {
+                    id: FrameId(header.frame_id),
+                    timestamp: header.capture_time_s,
+                    ..FrameFeatures::default()
+                },
+                points: false,
+                lines: false,
+                manhattan: false,
+            });
+        pending.header.merge_stamps(header);
+        pending
+    }
+
+    /// Adds the points of a frame (a second copy of the same part is ignored).
+    pub fn add_points(&mut self, header: &MsgHeader, points: &[WireKeyPoint]) {
+        let p = self.entry(header);
+        if !std::mem::replace(&mut p.points, true) {
+            p.features.keypoints = points.iter().map(WireKeyPoint::keypoint).collect();
+            p.features.point_descriptors = points.iter().map(|k| k.descriptor).collect();
+        }
+    }
+
+    /// Adds the lines of a frame.
+    pub fn add_lines(&mut self, header: &MsgHeader, lines: &[WireLine]) {
+        let p = self.entry(header);
+        if !std::mem::replace(&mut p.lines, true) {
+            p.features.lines = lines.iter().map(WireLine::line).collect();
+            p.features.line_descriptors = lines.iter().map(|l| l.descriptor).collect();
+            p.features.lines3d = lines.iter().map(WireLine::line3).collect();
+        }
+    }
+
+    /// Adds the Manhattan axes of a frame (an empty slice: none found).
+    pub fn add_manhattan(&mut self, header: &MsgHeader, axes: &[WireManhattan]) {
+        let p = self.entry(header);
+        if !std::mem::replace(&mut p.manhattan, true) {
+            p.features.manhattan = axes.first().and_then(WireManhattan::axes);
+        }
+    }
+
+    /// Forgets every frame before `id` (already tracked, or skipped in realtime).
+    pub fn drop_before(&mut self, id: u64) {
+        self.pending = self.pending.split_off(&id);
+    }
+
+    /// Lockstep: the oldest frame once all its parts are in, or once `deadline` passed
+    /// since its first part arrived (tracked without the missing ones).
+    pub fn next_in_order(&mut self, deadline: Duration) -> Option<Joined> {
+        let (&id, p) = self.pending.first_key_value()?;
+        let complete = p.points && p.lines && p.manhattan;
+        if !complete && p.first_seen.elapsed() < deadline {
+            return None;
+        }
+        self.take(id)
+    }
+
+    /// Realtime: the newest complete frame, dropping older ones; or the oldest whose
+    /// deadline passed.
+    pub fn next_newest(&mut self, deadline: Duration) -> Option<Joined> {
+        let newest_complete = self
+            .pending
+            .iter()
+            .rev()
+            .find(|(_, p)| p.points && p.lines && p.manhattan)
+            .map(|(id, _)| *id);
+        if let Some(id) = newest_complete {
+            self.drop_before(id);
+            return self.take(id);
+        }
+        let (&id, p) = self.pending.first_key_value()?;
+        (p.first_seen.elapsed() >= deadline)
+            .then(|| self.take(id))
+            .flatten()
+    }
+
+    fn take(&mut self, id: u64) -> Option<Joined> {
+        let p = self.pending.remove(&id)?;
+        let incomplete = !(p.points && p.lines && p.manhattan);
+        if incomplete {
+            tracing::warn!(
+                frame = id,
+                points = p.points,
+                lines = p.lines,
+                manhattan = p.manhattan,
+                "tracker: feature message missing at the deadline; tracking without it"
+            );
+        }
+        Some(Joined {
+            header: p.header,
+            features: p.features,
+            incomplete,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn header(id: u64) -> MsgHeader {
+        MsgHeader::new(FrameId(id), id as f64 * 0.1)
+    }
+
+    #[test]
+    fn frames_are_released_complete_in_order_or_at_the_deadline() {
+        let mut join = FrameJoin::default();
+        let long = Duration::from_secs(60);
+        join.add_points(&header(1), &[WireKeyPoint::default(); 3]);
+        join.add_lines(&header(1), &[WireLine::default(); 2]);
+        assert!(join.next_in_order(long).is_none(), "axes missing");
+        join.add_manhattan(&header(1), &[]);
+        join.add_points(&header(2), &[]);
+        let j = join.next_in_order(long).unwrap();
+        assert_eq!((j.features.id, j.features.keypoints.len()), (FrameId(1), 3));
+        assert_eq!(j.features.lines3d.len(), 2);
+        assert!(!j.incomplete && j.features.manhattan.is_none());
+        assert!(join.next_in_order(long).is_none());
+        let j = join.next_in_order(Duration::ZERO).unwrap();
+        assert!(j.incomplete && j.features.id == FrameId(2));
+    }
+
+    #[test]
+    fn realtime_takes_the_newest_complete_frame() {
+        let mut join = FrameJoin::default();
+        for id in [3, 4, 5] {
+            join.add_points(&header(id), &[]);
+            join.add_lines(&header(id), &[]);
+            if id != 5 {
+                join.add_manhattan(&header(id), &[]);
+            }
+        }
+        let j = join.next_newest(Duration::from_secs(60)).unwrap();
+        assert_eq!(j.features.id, FrameId(4));
+        assert!(join.next_newest(Duration::from_secs(60)).is_none());
+        assert_eq!(
+            join.next_newest(Duration::ZERO).unwrap().features.id,
+            FrameId(5)
+        );
+    }
+}

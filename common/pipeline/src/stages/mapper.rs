@@ -1,0 +1,58 @@
+//! `mapper`: owns the map; turns each keyframe request into a keyframe with local
+//! mapping (landmarks, fusion, local BA, culling) and answers with the map. The map it
+//! sends is also its checkpoint, which a restarted mapper (and tracker) resumes from.
+
+use super::context::{POLL, StageContext, StageError};
+use gfs_ipc::{MAX_VARIABLE_MESSAGE_BYTES, Service, Stage, encode_message, topics};
+use gfs_odometry::session::{KeyFrameRequest, MapUpdate, MappingSession};
+
+/// The checkpoint: the last map sent (a bincode [`MapUpdate`]).
+pub const MAP_CHECKPOINT: &str = "map.bin";
+
+/// A map message is sized for this many bytes at first (grows as needed).
+const TYPICAL_MAP_BYTES: usize = 4 << 20;
+
+/// Runs the mapper until told to stop.
+///
+/// # Errors
+/// [`StageError`] when the config is invalid, the checkpoint unreadable or a topic
+/// fails.
+pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
+    let camera = ctx.config().camera()?.pinhole;
+    let (scale, levels) = ctx.pyramid()?;
+    let mut session = MappingSession::new(&ctx.config().odometry(), camera, scale, levels);
+    let state = ctx.state();
+    if let Some(update) = state.read::<MapUpdate>(MAP_CHECKPOINT)? {
+        tracing::info!(
+            request = update.seq,
+            "mapper: resuming from the last map sent"
+        );
+        session.restore(update);
+    }
+    let requests = ctx.subscribe::<u8>(topics::KEYFRAME)?;
+    let publisher = ctx.publish::<u8>(topics::LOCAL_MAP, TYPICAL_MAP_BYTES)?;
+    let mut bytes = Vec::new();
+    while !ctx.stopping() {
+        let Some((mut header, request)) =
+            requests.receive_decoded::<KeyFrameRequest>(MAX_VARIABLE_MESSAGE_BYTES)?
+        else {
+            publisher.update_connections()?;
+            requests.wait(POLL * 25)?;
+            continue;
+        };
+        header.mark_received(Stage::Mapper);
+        header.mark_started(Stage::Mapper);
+        let update = session.insert(request);
+        if let Err(e) = encode_message(&update, &mut bytes) {
+            tracing::error!(
+                frame = header.frame_id,
+                "mapper: cannot encode the map: {e}"
+            );
+            continue;
+        }
+        header.mark_finished(Stage::Mapper);
+        publisher.publish_slice(&header, &bytes)?;
+        state.write_bytes(MAP_CHECKPOINT, &bytes)?;
+    }
+    Ok(())
+}

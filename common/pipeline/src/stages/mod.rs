@@ -1,0 +1,39 @@
+//! The stage loops. Each is `receive -> call the library -> publish` over gfs-ipc topics,
+//! generic over the iceoryx2 service variant so that the same code runs as a process
+//! (`ipc::Service`, the services in `services/`) or as a thread (`local::Service`,
+//! `gfsvo run --mode threads`).
+
+mod context;
+mod join;
+mod lines;
+mod mapper;
+mod planes;
+mod points;
+mod source;
+mod tracker;
+
+pub use context::{StageContext, StageError, StageSettings};
+pub use lines::run as run_lines;
+pub use mapper::run as run_mapper;
+pub use planes::run as run_planes;
+pub use points::run as run_points;
+pub use source::run as run_source;
+pub use tracker::run as run_tracker;
+
+use gfs_ipc::{Service, Stage};
+
+/// Runs `stage` until it is told to stop.
+///
+/// # Errors
+/// [`StageError`] when the stage cannot start (config, dataset, topics) or its
+/// transport fails; the supervisor then restarts it.
+pub fn run_stage<S: Service>(stage: Stage, ctx: &StageContext<S>) -> Result<(), StageError> {
+    match stage {
+        Stage::Source => run_source(ctx),
+        Stage::Points => run_points(ctx),
+        Stage::Lines => run_lines(ctx),
+        Stage::Planes => run_planes(ctx),
+        Stage::Tracker => run_tracker(ctx),
+        Stage::Mapper => run_mapper(ctx),
+    }
+}

@@ -1,0 +1,95 @@
+//! `planes`: plane normals and the frame's Manhattan axes from its depth and its 3D
+//! lines (from the `lines` stage), with the axes' identity kept by the tracker's
+//! predicted rotation (from the last pose).
+
+use super::context::{POLL, StageContext, StageError};
+use crate::wire::{WireLine, WireManhattan, WirePose};
+use gfs_ipc::{Mode, Service, Stage, frame_view, topics};
+use gfs_lines::Line3;
+use gfs_odometry::StructureExtractor;
+use nalgebra::Rotation3;
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+/// Runs the planes stage until told to stop. With the Manhattan axes switched off
+/// (ablation) it publishes "no axes" for every frame.
+///
+/// # Errors
+/// [`StageError`] when the config is invalid or a topic fails.
+pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
+    let camera = ctx.config().camera()?.pinhole;
+    let use_manhattan = ctx.config().tracking.use_manhattan;
+    let mut structure =
+        StructureExtractor::new(&ctx.config().planes).map_err(|e| StageError::Setup {
+            stage: "planes",
+            message: e.to_string(),
+        })?;
+    let frames = ctx.subscribe::<u8>(topics::FRAME)?;
+    let lines = ctx.subscribe::<WireLine>(topics::LINES)?;
+    let poses = ctx.subscribe::<WirePose>(topics::POSE)?;
+    let publisher = ctx.publish::<WireManhattan>(topics::MANHATTAN, 1)?;
+    let mut predicted: Option<Rotation3<f64>> = None;
+    let mut lines3d: BTreeMap<u64, Vec<Line3>> = BTreeMap::new();
+    while !ctx.stopping() {
+        // Lockstep: the pose of frame k-1 is queued before frame k is published.
+        while let Some(pose) = poses.receive()? {
+            if let Some(p) = pose.payload().first() {
+                predicted = p.predicted_rotation();
+            }
+        }
+        let sample = match ctx.mode() {
+            Mode::Lockstep => frames.receive()?,
+            Mode::Realtime => frames.receive_latest()?,
+        };
+        let Some(sample) = sample else {
+            publisher.update_connections()?;
+            frames.wait(POLL * 5)?;
+            continue;
+        };
+        let mut header = *sample.user_header();
+        let id = header.frame_id;
+        header.mark_received(Stage::Planes);
+        let mut axes = None;
+        if use_manhattan {
+            let deadline = Instant::now() + ctx.feature_deadline();
+            while !lines3d.contains_key(&id) && Instant::now() < deadline && !ctx.stopping() {
+                while let Some(s) = lines.receive()? {
+                    let frame = s.user_header().frame_id;
+                    if frame >= id {
+                        lines3d.insert(frame, s.payload().iter().map(WireLine::line3).collect());
+                    }
+                }
+                if !lines3d.contains_key(&id) {
+                    lines.wait(POLL)?;
+                }
+            }
+            let frame_lines = lines3d.remove(&id).unwrap_or_else(|| {
+                tracing::warn!(
+                    frame = id,
+                    "planes: no lines before the deadline; planes only"
+                );
+                Vec::new()
+            });
+            lines3d.retain(|k, _| *k > id);
+            header.mark_started(Stage::Planes);
+            match frame_view(&sample) {
+                Ok(frame) => {
+                    axes = structure
+                        .extract(&frame.depth(), &camera, &frame_lines, predicted.as_ref())
+                        .unwrap_or_else(|e| {
+                            tracing::warn!(frame = id, "planes: {e}");
+                            None
+                        });
+                }
+                Err(e) => tracing::warn!(frame = id, "planes: bad frame: {e}"),
+            }
+        } else {
+            header.mark_started(Stage::Planes);
+        }
+        drop(sample);
+        header.mark_finished(Stage::Planes);
+        let wire: Vec<WireManhattan> = axes.iter().map(WireManhattan::new).collect();
+        publisher.publish_slice(&header, &wire)?;
+    }
+    Ok(())
+}

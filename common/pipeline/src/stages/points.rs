@@ -1,0 +1,54 @@
+//! `points`: ORB keypoints with depth and descriptors of every frame.
+
+use super::context::{POLL, StageContext, StageError};
+use crate::wire::WireKeyPoint;
+use gfs_ipc::{Mode, Service, Stage, frame_view, topics};
+use gfs_points::{OrbExtractor, OrbFeatures};
+
+/// Runs the points stage until told to stop.
+///
+/// # Errors
+/// [`StageError`] when the ORB config is invalid or a topic fails.
+pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
+    let config = &ctx.config().points;
+    let mut orb = OrbExtractor::new(config.clone()).map_err(|e| StageError::Setup {
+        stage: "points",
+        message: e.to_string(),
+    })?;
+    let mut features = OrbFeatures::default();
+    let frames = ctx.subscribe::<u8>(topics::FRAME)?;
+    let publisher = ctx.publish::<WireKeyPoint>(topics::POINTS, config.features)?;
+    while !ctx.stopping() {
+        let sample = match ctx.mode() {
+            Mode::Lockstep => frames.receive()?,
+            Mode::Realtime => frames.receive_latest()?,
+        };
+        let Some(sample) = sample else {
+            publisher.update_connections()?;
+            frames.wait(POLL * 25)?;
+            continue;
+        };
+        let mut header = *sample.user_header();
+        header.mark_received(Stage::Points);
+        header.mark_started(Stage::Points);
+        features.clear();
+        match frame_view(&sample) {
+            Ok(frame) => {
+                if let Err(e) = orb.extract(frame.gray(), Some(frame.depth()), &mut features) {
+                    tracing::warn!(frame = header.frame_id, "points: {e}; no keypoints");
+                    features.clear();
+                }
+            }
+            Err(e) => tracing::warn!(frame = header.frame_id, "points: bad frame: {e}"),
+        }
+        drop(sample);
+        header.mark_finished(Stage::Points);
+        let mut out = publisher.loan(&header, features.len())?;
+        let zipped = features.keypoints.iter().zip(&features.descriptors);
+        for (slot, (kp, d)) in out.payload_mut().iter_mut().zip(zipped) {
+            *slot = WireKeyPoint::new(kp, d);
+        }
+        publisher.send(out)?;
+    }
+    Ok(())
+}

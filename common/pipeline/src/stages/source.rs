@@ -1,0 +1,165 @@
+//! `source`: decodes the dataset's frames (undistorted gray and depth in metres) and
+//! publishes each once for every other stage to read in place. Lockstep: frame k+1 only
+//! after the pose of frame k. Realtime: at the capture rate (or `max_rate`).
+
+use super::context::{POLL, StageContext, StageError};
+use crate::wire::WirePose;
+use gfs_core::Image;
+use gfs_core::ids::FrameId;
+use gfs_dataset::{DEFAULT_READ_AHEAD, Sequence};
+use gfs_ipc::{
+    FrameImages, FrameLayout, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
+    topics,
+};
+use std::time::{Duration, Instant};
+
+/// The checkpoint: the index of the next frame to publish.
+const CHECKPOINT: &str = "source.bin";
+
+/// Runs the source until told to stop. After the last frame it stays up, idle, so that
+/// a restarted stage still receives the last frames from its history.
+///
+/// # Errors
+/// [`StageError`] when the dataset cannot be opened or a topic fails.
+pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
+    let camera = ctx.config().camera()?;
+    let dataset = &ctx.settings.dataset;
+    let sequence = Sequence::open(dataset, &camera, &ctx.config().depth)
+        .map_err(|e| StageError::Dataset(e.to_string()))?;
+    let total = ctx
+        .settings
+        .frames
+        .map_or(sequence.len(), |n| n.min(sequence.len()));
+    let (width, height) = (camera.pinhole.width, camera.pinhole.height);
+    let layout = FrameLayout::new(width, height, false).map_err(|e| StageError::Setup {
+        stage: "source",
+        message: e.to_string(),
+    })?;
+    let publisher = ctx.publish::<u8>(topics::FRAME, layout.byte_len())?;
+    let poses = ctx.subscribe::<WirePose>(topics::POSE)?;
+    let state = ctx.state();
+    let mut scratch = Vec::new();
+    let start = state
+        .read::<u64>(CHECKPOINT)?
+        .map_or(0, |i| usize::try_from(i).unwrap_or(usize::MAX))
+        .min(total);
+    let blank = (
+        Image::<u8>::new(width, height),
+        Image::<f32>::new(width, height),
+    );
+    let mut reader = sequence.frames_from(start, Some(total), DEFAULT_READ_AHEAD);
+    let clock = Instant::now();
+    let mut first_timestamp = None;
+    for index in start..total {
+        let Some(item) = reader.next() else { break };
+        let timestamp = match &item {
+            Ok(frame) => frame.timestamp,
+            Err(_) => sequence
+                .timestamps()
+                .get(index)
+                .copied()
+                .unwrap_or_default(),
+        };
+        if ctx.mode() == Mode::Realtime {
+            let first = *first_timestamp.get_or_insert(timestamp);
+            let due = match ctx.settings.max_rate {
+                Some(rate) if rate > 0.0 => (index - start) as f64 / rate,
+                _ => timestamp - first,
+            };
+            pace(ctx, clock, due);
+        }
+        let images = match &item {
+            Ok(frame) => FrameImages {
+                gray: frame.gray.view(),
+                depth: frame.depth.view(),
+                rgb: None,
+            },
+            Err(e) => {
+                tracing::warn!("source: frame {index}: {e}; publishing a blank frame");
+                FrameImages {
+                    gray: blank.0.view(),
+                    depth: blank.1.view(),
+                    rgb: None,
+                }
+            }
+        };
+        let publish = || -> Result<(), StageError> {
+            let mut header = MsgHeader::new(FrameId(index as u64), timestamp);
+            header.mark_received(Stage::Source);
+            header.mark_started(Stage::Source);
+            let mut sample = publisher.loan_frame(&header, &layout)?;
+            gfs_ipc::frame_view_mut(&mut sample, &layout)
+                .and_then(|mut planes| planes.copy_from(&images))
+                .map_err(|e| StageError::Setup {
+                    stage: "source",
+                    message: e.to_string(),
+                })?;
+            sample.user_header_mut().mark_finished(Stage::Source);
+            publisher.send(sample)?;
+            Ok(())
+        };
+        publish()?;
+        match ctx.mode() {
+            Mode::Lockstep => {
+                if !await_pose(ctx, &publisher, &poses, index as u64, &publish)? {
+                    return Ok(());
+                }
+            }
+            Mode::Realtime => {}
+        }
+        state.write(CHECKPOINT, &(index as u64 + 1), &mut scratch)?;
+        if let Ok(frame) = item {
+            reader.recycle(frame);
+        }
+    }
+    while !ctx.stopping() {
+        publisher.update_connections()?;
+        std::thread::sleep(POLL * 25);
+    }
+    Ok(())
+}
+
+/// Sleeps until `due` seconds after `clock` (or until told to stop).
+fn pace<S: Service>(ctx: &StageContext<S>, clock: Instant, due: f64) {
+    let due = Duration::from_secs_f64(due.max(0.0));
+    while !ctx.stopping() {
+        let now = clock.elapsed();
+        if now >= due {
+            return;
+        }
+        std::thread::sleep((due - now).min(POLL * 5));
+    }
+}
+
+/// Lockstep: waits for the pose of frame `id` (or a later one), publishing the frame
+/// again when none comes for a while (front-end stages restarted without it). False
+/// when told to stop.
+fn await_pose<S: Service>(
+    ctx: &StageContext<S>,
+    publisher: &TopicPublisher<S, u8>,
+    poses: &TopicSubscriber<S, WirePose>,
+    id: u64,
+    publish: &dyn Fn() -> Result<(), StageError>,
+) -> Result<bool, StageError> {
+    let mut since = Instant::now();
+    loop {
+        while let Some(pose) = poses.receive()? {
+            if pose.payload().first().is_some_and(|p| p.frame_id >= id) {
+                return Ok(true);
+            }
+        }
+        if ctx.stopping() {
+            return Ok(false);
+        }
+        publisher.update_connections()?;
+        poses.wait(POLL * 5)?;
+        if since.elapsed() > ctx.resend_after() {
+            tracing::warn!(
+                frame = id,
+                "source: no pose yet; publishing the frame again"
+            );
+            publish()?;
+            since = Instant::now();
+        }
+    }
+}

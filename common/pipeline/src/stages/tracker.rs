@@ -1,0 +1,231 @@
+//! `tracker`: joins the points, lines and Manhattan axes of each frame, tracks it
+//! (the tracking half of the odometry), asks the mapper for keyframes and publishes the
+//! pose. Lockstep: a keyframe's pose is published after the mapper refined it, as the
+//! in-process odometry does, so both give the same trajectory.
+
+use super::context::{POLL, StageContext, StageError};
+use super::join::{FrameJoin, Joined};
+use super::mapper::MAP_CHECKPOINT;
+use crate::state::StateDir;
+use crate::wire::{WireKeyPoint, WireLine, WireManhattan, WirePose};
+use gfs_ipc::{
+    MAX_VARIABLE_MESSAGE_BYTES, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
+    encode_message, topics,
+};
+use gfs_odometry::TrackingStatus;
+use gfs_odometry::session::{MapUpdate, TrackingCheckpoint, TrackingSession};
+use nalgebra::Isometry3;
+use std::time::Instant;
+
+/// The checkpoint: motion model, reference keyframe, counters ([`TrackingCheckpoint`]).
+const CHECKPOINT: &str = "tracker.bin";
+
+/// The tracker's ports.
+struct Ports<S: Service> {
+    points: TopicSubscriber<S, WireKeyPoint>,
+    lines: TopicSubscriber<S, WireLine>,
+    manhattan: TopicSubscriber<S, WireManhattan>,
+    maps: TopicSubscriber<S, u8>,
+    poses: TopicPublisher<S, WirePose>,
+    keyframes: TopicPublisher<S, u8>,
+}
+
+/// A keyframe request sent and not answered yet.
+struct Outstanding {
+    header: MsgHeader,
+    bytes: Vec<u8>,
+    sent: Instant,
+}
+
+/// Runs the tracker until told to stop.
+///
+/// # Errors
+/// [`StageError`] when the config is invalid, a checkpoint unreadable or a topic fails.
+pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
+    let camera = ctx.config().camera()?.pinhole;
+    let (scale, levels) = ctx.pyramid()?;
+    let config = ctx.config();
+    let mut session =
+        TrackingSession::new(config.odometry(), camera, scale, levels, &config.lines.grid);
+    let state = ctx.state();
+    let mut next_frame = resume(&state, &mut session)?;
+    let ports = Ports {
+        points: ctx.subscribe(topics::POINTS)?,
+        lines: ctx.subscribe(topics::LINES)?,
+        manhattan: ctx.subscribe(topics::MANHATTAN)?,
+        maps: ctx.subscribe(topics::LOCAL_MAP)?,
+        poses: ctx.publish(topics::POSE, 1)?,
+        keyframes: ctx.publish(topics::KEYFRAME, 1 << 20)?,
+    };
+    let mut join = FrameJoin::default();
+    let mut outstanding: Option<Outstanding> = None;
+    let mut scratch = Vec::new();
+    while !ctx.stopping() {
+        if take_maps(&ports.maps, &mut session)?.is_some() {
+            outstanding = None;
+        }
+        receive_features(&ports, &mut join, next_frame)?;
+        let joined = match ctx.mode() {
+            Mode::Lockstep => join.next_in_order(ctx.feature_deadline()),
+            Mode::Realtime => join.next_newest(ctx.feature_deadline()),
+        };
+        let Some(Joined {
+            mut header,
+            features,
+            incomplete,
+        }) = joined
+        else {
+            ports.poses.update_connections()?;
+            ports.keyframes.update_connections()?;
+            resend_if_stale(ctx, &ports.keyframes, &mut outstanding)?;
+            ports.manhattan.wait(POLL)?;
+            continue;
+        };
+        header.mark_received(Stage::Tracker);
+        header.mark_started(Stage::Tracker);
+        let (id, timestamp) = (features.id, features.timestamp);
+        let (mut pose, request) = match session.process(features) {
+            Ok(out) => (out.pose, out.keyframe),
+            Err(e) => {
+                tracing::warn!("tracker: {e}; the pose is predicted");
+                (session.skip(id, timestamp), None)
+            }
+        };
+        if incomplete && pose.status == TrackingStatus::Tracked {
+            pose.status = TrackingStatus::Degraded;
+        }
+        let keyframe = request.is_some();
+        if let Some(request) = request {
+            let mut bytes = Vec::new();
+            if let Err(e) = encode_message(&request, &mut bytes) {
+                tracing::error!(frame = %id, "tracker: cannot encode the keyframe: {e}");
+            } else {
+                ports.keyframes.publish_slice(&header, &bytes)?;
+                outstanding = Some(Outstanding {
+                    header,
+                    bytes,
+                    sent: Instant::now(),
+                });
+            }
+            if ctx.mode() == Mode::Lockstep || session.needs_map() {
+                let Some((mapper, refined)) =
+                    await_map(ctx, &ports, &mut session, &mut outstanding)?
+                else {
+                    return Ok(());
+                };
+                header.merge_stamps(&mapper);
+                if let Some(refined) = refined {
+                    pose.world_from_camera = refined.inverse();
+                }
+            }
+        }
+        header.mark_finished(Stage::Tracker);
+        let predicted = session.predicted_rotation();
+        let wire = WirePose::new(&pose, predicted.as_ref(), keyframe);
+        ports.poses.publish_slice(&header, &[wire])?;
+        state.write(CHECKPOINT, &session.checkpoint(), &mut scratch)?;
+        next_frame = id.0 + 1;
+        join.drop_before(next_frame);
+    }
+    Ok(())
+}
+
+/// Restores a killed tracker's state; returns the next frame to track.
+fn resume(state: &StateDir, session: &mut TrackingSession) -> Result<u64, StageError> {
+    let Some(checkpoint) = state.read::<TrackingCheckpoint>(CHECKPOINT)? else {
+        return Ok(0);
+    };
+    let map = state.read::<MapUpdate>(MAP_CHECKPOINT).unwrap_or_else(|e| {
+        tracing::warn!("tracker: {e}; starting a new map");
+        None
+    });
+    let next = checkpoint.last.map_or(0, |(id, _)| id.0 + 1);
+    tracing::info!(frame = next, "tracker: resuming from its checkpoint");
+    session.restore(checkpoint, map);
+    Ok(next)
+}
+
+fn receive_features<S: Service>(
+    ports: &Ports<S>,
+    join: &mut FrameJoin,
+    next_frame: u64,
+) -> Result<(), StageError> {
+    while let Some(s) = ports.points.receive()? {
+        if s.user_header().frame_id >= next_frame {
+            join.add_points(s.user_header(), s.payload());
+        }
+    }
+    while let Some(s) = ports.lines.receive()? {
+        if s.user_header().frame_id >= next_frame {
+            join.add_lines(s.user_header(), s.payload());
+        }
+    }
+    while let Some(s) = ports.manhattan.receive()? {
+        if s.user_header().frame_id >= next_frame {
+            join.add_manhattan(s.user_header(), s.payload());
+        }
+    }
+    Ok(())
+}
+
+/// Applies every map received; returns the header and refined keyframe pose of the one
+/// that answered the pending request, if it came.
+fn take_maps<S: Service>(
+    maps: &TopicSubscriber<S, u8>,
+    session: &mut TrackingSession,
+) -> Result<Option<(MsgHeader, Option<Isometry3<f64>>)>, StageError> {
+    let mut answer = None;
+    while let Some((header, update)) =
+        maps.receive_decoded::<MapUpdate>(MAX_VARIABLE_MESSAGE_BYTES)?
+    {
+        let answers = session
+            .pending_request()
+            .is_some_and(|(seq, _)| seq == update.seq);
+        let refined = session.apply(update);
+        if answers {
+            answer = Some((header, refined));
+        }
+    }
+    Ok(answer)
+}
+
+/// Waits for the map answering the pending request, sending the request again when the
+/// mapper seems to have lost it. `None` when told to stop.
+fn await_map<S: Service>(
+    ctx: &StageContext<S>,
+    ports: &Ports<S>,
+    session: &mut TrackingSession,
+    outstanding: &mut Option<Outstanding>,
+) -> Result<Option<(MsgHeader, Option<Isometry3<f64>>)>, StageError> {
+    loop {
+        if let Some(answer) = take_maps(&ports.maps, session)? {
+            *outstanding = None;
+            return Ok(Some(answer));
+        }
+        if session.pending_request().is_none() || ctx.stopping() {
+            return Ok(None);
+        }
+        ports.keyframes.update_connections()?;
+        resend_if_stale(ctx, &ports.keyframes, outstanding)?;
+        ports.maps.wait(POLL)?;
+    }
+}
+
+fn resend_if_stale<S: Service>(
+    ctx: &StageContext<S>,
+    keyframes: &TopicPublisher<S, u8>,
+    outstanding: &mut Option<Outstanding>,
+) -> Result<(), StageError> {
+    if let Some(o) = outstanding
+        .as_mut()
+        .filter(|o| o.sent.elapsed() > ctx.resend_after())
+    {
+        tracing::warn!(
+            frame = o.header.frame_id,
+            "tracker: no map yet; sending the keyframe again"
+        );
+        keyframes.publish_slice(&o.header, &o.bytes)?;
+        o.sent = Instant::now();
+    }
+    Ok(())
+}

@@ -1,0 +1,6 @@
+//! `gfsvo-points`: the points stage of the GFS-VO pipeline as a process (ORB keypoints with depth and descriptors of every frame).
+//! Run by `gfsvo run` or as a systemd service; `--help` lists the arguments.
+
+fn main() -> std::process::ExitCode {
+    gfs_pipeline::service::service_main(gfs_ipc::Stage::Points)
+}
