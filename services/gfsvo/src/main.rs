@@ -42,6 +42,9 @@ enum Command {
     /// Time one front-end stage over the frames of a dataset (medians over real frames).
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// Per-stage timing table (median / p90 / p99 / max) of a pipeline run's profile.json
+    /// and a PNG of each stage's processing time over the frames.
+    Profile(cmd::profile::ProfileArgs),
 }
 
 fn main() -> ExitCode {
@@ -52,6 +55,7 @@ fn main() -> ExitCode {
         Command::Eval(args) => cmd::eval::run(args),
         Command::Synth(args) => cmd::synth::run(args),
         Command::Bench(command) => bench::run(command),
+        Command::Profile(args) => cmd::profile::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

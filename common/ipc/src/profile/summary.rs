@@ -136,11 +136,11 @@ impl fmt::Display for ProfileSummary {
             "{} frames, mode {} (ms; nearest-rank quantiles)",
             self.frames, self.mode
         )?;
-        writeln!(
-            f,
+        let titles = format!(
             "{:<10} {:>6} | {:^BLOCK$} | {:^BLOCK$}",
             "", "", "processing", "queueing"
-        )?;
+        );
+        writeln!(f, "{}", titles.trim_end())?;
         let names = format!(
             "{:>COL$} {:>COL$} {:>COL$} {:>COL$}",
             "median", "p90", "p99", "max"

@@ -1,5 +1,6 @@
 //! Subcommands other than the benchmarks.
 
 pub mod eval;
+pub mod profile;
 pub mod run;
 pub mod synth;
