@@ -4,6 +4,7 @@
 
 mod bench;
 mod cmd;
+mod pipeline;
 use gfs_pipeline::config;
 
 use clap::{Parser, Subcommand};
@@ -51,7 +52,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(&cli.log);
     let result = match &cli.command {
-        Command::Run(args) => cmd::run::run(args),
+        Command::Run(args) => cmd::run::run(args, &cli.log),
         Command::Eval(args) => cmd::eval::run(args),
         Command::Synth(args) => cmd::synth::run(args),
         Command::Bench(command) => bench::run(command),

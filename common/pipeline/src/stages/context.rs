@@ -128,6 +128,23 @@ impl<S: Service> StageContext<S> {
         false
     }
 
+    /// Sleeps until `subscriber`'s topic is published to or `timeout` passed. A wait cut
+    /// short by a signal is not an error: the loop then looks at the stop request.
+    ///
+    /// # Errors
+    /// [`IpcError`] other than an interrupted wait.
+    pub fn wait<T: Debug + ZeroCopySend + 'static>(
+        &self,
+        subscriber: &TopicSubscriber<S, T>,
+        timeout: Duration,
+    ) -> Result<(), IpcError> {
+        match subscriber.wait(timeout) {
+            Ok(_) => Ok(()),
+            Err(IpcError::Wakeup { reason, .. }) if reason.contains("Interrupt") => Ok(()),
+            Err(e) => Err(e),
+        }
+    }
+
     /// The run's checkpoint folder.
     pub fn state(&self) -> StateDir {
         StateDir::new(self.settings.state_dir.clone())

@@ -37,7 +37,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             requests.receive_decoded::<KeyFrameRequest>(MAX_VARIABLE_MESSAGE_BYTES)?
         else {
             publisher.update_connections()?;
-            requests.wait(POLL * 25)?;
+            ctx.wait(&requests, POLL * 25)?;
             continue;
         };
         header.mark_received(Stage::Mapper);

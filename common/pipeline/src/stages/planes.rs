@@ -43,7 +43,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         };
         let Some(sample) = sample else {
             publisher.update_connections()?;
-            frames.wait(POLL * 5)?;
+            ctx.wait(&frames, POLL * 5)?;
             continue;
         };
         let mut header = *sample.user_header();
@@ -60,7 +60,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                     }
                 }
                 if !lines3d.contains_key(&id) {
-                    lines.wait(POLL)?;
+                    ctx.wait(&lines, POLL)?;
                 }
             }
             let frame_lines = lines3d.remove(&id).unwrap_or_else(|| {

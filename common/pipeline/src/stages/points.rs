@@ -25,7 +25,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         };
         let Some(sample) = sample else {
             publisher.update_connections()?;
-            frames.wait(POLL * 25)?;
+            ctx.wait(&frames, POLL * 25)?;
             continue;
         };
         let mut header = *sample.user_header();

@@ -78,7 +78,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             ports.poses.update_connections()?;
             ports.keyframes.update_connections()?;
             resend_if_stale(ctx, &ports.keyframes, &mut outstanding)?;
-            ports.manhattan.wait(POLL)?;
+            ctx.wait(&ports.manhattan, POLL)?;
             continue;
         };
         header.mark_received(Stage::Tracker);
@@ -207,7 +207,7 @@ fn await_map<S: Service>(
         }
         ports.keyframes.update_connections()?;
         resend_if_stale(ctx, &ports.keyframes, outstanding)?;
-        ports.maps.wait(POLL)?;
+        ctx.wait(&ports.maps, POLL)?;
     }
 }
 

@@ -1,0 +1,123 @@
+//! `--mode inline`: the front end and the odometry in this thread, frame after frame
+//! (no processes, no shared memory): the library path the tests also drive.
+
+use crate::CliResult;
+use crate::bench::stats::Summary;
+use crate::config::Config;
+use gfs_dataset::Sequence;
+use gfs_odometry::{FramePose, Frontend, Odometry, OdometryConfig};
+use indicatif::ProgressBar;
+use std::collections::BTreeMap;
+
+/// Poses, per-stage timings and keyframes of an inline run.
+pub struct InlineOutcome {
+    /// One pose per input frame.
+    pub poses: Vec<FramePose>,
+    /// Milliseconds per stage.
+    pub timings: BTreeMap<&'static str, Summary>,
+    /// Keyframes in the map at the end.
+    pub keyframes: usize,
+}
+
+/// Runs the first `total` frames of `sequence`.
+///
+/// # Errors
+/// When a stage's config is invalid or a frame's features do not line up.
+pub fn run(
+    config: &Config,
+    odometry_config: OdometryConfig,
+    sequence: &Sequence,
+    total: usize,
+    progress: &ProgressBar,
+) -> CliResult<InlineOutcome> {
+    let pinhole = config.camera()?.pinhole;
+    let mut frontend = Frontend::new(
+        pinhole,
+        &config.points,
+        &config.lines,
+        &config.planes,
+        odometry_config.tracking.use_lines,
+        odometry_config.tracking.use_manhattan,
+    )?;
+    let levels =
+        u8::try_from(config.points.levels).map_err(|_| "points.levels must be below 256")?;
+    let mut odometry = Odometry::new(
+        odometry_config,
+        pinhole,
+        f64::from(config.points.scale_factor),
+        levels,
+        &config.lines.grid,
+    );
+    let mut times = StageTimes::default();
+    let mut poses = Vec::with_capacity(total);
+    for (index, frame) in sequence.frames(Some(total)).enumerate() {
+        let pose = match frame {
+            Ok(frame) => {
+                let rotation = odometry.predicted_rotation();
+                let features = frontend.extract(
+                    frame.id,
+                    frame.timestamp,
+                    frame.gray.view(),
+                    frame.depth.view(),
+                    rotation.as_ref(),
+                )?;
+                let pose = odometry.process(features)?;
+                times.record(&frontend, &odometry);
+                pose
+            }
+            Err(e) => {
+                tracing::warn!("frame {index}: {e}; its pose is predicted");
+                let timestamp = sequence
+                    .timestamps()
+                    .get(index)
+                    .copied()
+                    .unwrap_or_default();
+                odometry.skip(gfs_core::ids::FrameId(index as u64), timestamp)
+            }
+        };
+        poses.push(pose);
+        progress.inc(1);
+    }
+    Ok(InlineOutcome {
+        poses,
+        timings: times.summarise(),
+        keyframes: odometry.map().keyframe_count(),
+    })
+}
+
+/// Per-frame milliseconds of each stage.
+#[derive(Default)]
+struct StageTimes {
+    points: Vec<f64>,
+    lines: Vec<f64>,
+    planes: Vec<f64>,
+    tracking: Vec<f64>,
+    mapping: Vec<f64>,
+}
+
+impl StageTimes {
+    fn record(&mut self, frontend: &Frontend, odometry: &Odometry) {
+        let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+        let f = frontend.timings();
+        self.points.push(ms(f.points));
+        self.lines.push(ms(f.lines));
+        self.planes.push(ms(f.planes));
+        let o = odometry.timings();
+        self.tracking.push(ms(o.tracking));
+        if let Some(m) = o.mapping {
+            self.mapping.push(ms(m));
+        }
+    }
+
+    fn summarise(mut self) -> BTreeMap<&'static str, Summary> {
+        [
+            ("points", Summary::of(&mut self.points)),
+            ("lines", Summary::of(&mut self.lines)),
+            ("planes", Summary::of(&mut self.planes)),
+            ("tracking", Summary::of(&mut self.tracking)),
+            ("mapping_per_keyframe", Summary::of(&mut self.mapping)),
+        ]
+        .into_iter()
+        .collect()
+    }
+}

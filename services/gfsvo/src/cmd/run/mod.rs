@@ -1,0 +1,287 @@
+//! `gfsvo run`: the odometry over a dataset folder (or the built-in synthetic sequence),
+//! as the supervised multi-process pipeline (default, `lockstep`), paced at the camera
+//! rate (`realtime`), as threads of one process (`threads`) or in this thread
+//! (`inline`). Writes `trajectory.txt`, `status.txt` and (pipeline) `profile.json`,
+//! prints the ATE when ground truth exists and the time per stage.
+
+mod inline;
+
+use crate::CliResult;
+use crate::bench::stats::Summary;
+use crate::config::Config;
+use crate::pipeline::{self, PipelineOptions};
+use gfs_dataset::{EVO_MAX_DIFF_S, Evaluation, Sequence, Trajectory, evaluate};
+use gfs_ipc::{Mode, RunId};
+use gfs_odometry::{FramePose, TrackingStatus};
+use gfs_pipeline::stages::StageSettings;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// How `gfsvo run` runs the stages.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum RunMode {
+    /// Stage processes; frame k+1 enters after frame k's pose: reproducible.
+    Lockstep,
+    /// Stage processes at the camera rate (or --max-rate); stages overlap and a stage
+    /// that falls behind takes the newest frame.
+    Realtime,
+    /// Every stage as a thread of this process (iceoryx2 local services), lockstep.
+    Threads,
+    /// The library in this thread, frame after frame.
+    Inline,
+}
+
+/// Arguments of `gfsvo run`.
+#[derive(clap::Args)]
+pub struct RunArgs {
+    /// Dataset folder in TUM RGB-D layout. Without it, the built-in synthetic sequence
+    /// (a textured room, 300 frames, rendered once into a cache folder) is used.
+    pub dataset: Option<PathBuf>,
+    /// Config TOML (default: chosen from the dataset folder name; see configs/).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Output folder for trajectory.txt, status.txt, profile.json.
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+    /// How to run the stages.
+    #[arg(long, value_enum, default_value = "lockstep")]
+    pub mode: RunMode,
+    /// Realtime: play at this many frames per second instead of the capture times.
+    #[arg(long)]
+    pub max_rate: Option<f64>,
+    /// Run id: the iceoryx2 prefix of the run's shared memory (default: unique).
+    #[arg(long)]
+    pub run_id: Option<String>,
+    /// Process only the first N frames.
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// Ablation: run without line features.
+    #[arg(long)]
+    pub no_lines: bool,
+    /// Ablation: run without Manhattan axes.
+    #[arg(long)]
+    pub no_manhattan: bool,
+    /// Print the summary as one JSON object (ATE, frames per status, timings).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Per-stage timings of a run, as printed.
+enum Timings {
+    /// Inline: milliseconds per stage.
+    Inline(BTreeMap<&'static str, Summary>),
+    /// Pipeline: the profile's summary (processing, queueing, end to end).
+    Pipeline(gfs_ipc::profile::ProfileSummary),
+}
+
+/// Runs the odometry.
+pub fn run(args: &RunArgs, log: &str) -> CliResult {
+    let dataset = match &args.dataset {
+        Some(dir) => dir.clone(),
+        None => built_in_sequence(args.json)?,
+    };
+    let mut config = Config::load(args.config.as_deref(), &dataset)?;
+    config.tracking.use_lines &= !args.no_lines;
+    config.tracking.use_manhattan &= !args.no_manhattan;
+    let camera = config.camera()?;
+    let sequence = Sequence::open(&dataset, &camera, &config.depth)?;
+    std::fs::create_dir_all(&args.out)?;
+    let total = args
+        .frames
+        .map_or(sequence.len(), |n| n.min(sequence.len()));
+    let timestamps = &sequence.timestamps()[..total];
+
+    let (poses, timings, keyframes, restarts) = if args.mode == RunMode::Inline {
+        let progress = progress_bar(total as u64, args.json);
+        let outcome = inline::run(&config, config.odometry(), &sequence, total, &progress)?;
+        progress.finish_and_clear();
+        let timings = Timings::Inline(outcome.timings);
+        (outcome.poses, timings, outcome.keyframes, None)
+    } else {
+        let state_dir = args.out.join("state");
+        if state_dir.exists() {
+            std::fs::remove_dir_all(&state_dir)?;
+        }
+        let run_id = match &args.run_id {
+            Some(id) => RunId::new(id)?,
+            None => RunId::unique("run")?,
+        };
+        let options = PipelineOptions {
+            settings: StageSettings {
+                mode: if args.mode == RunMode::Realtime {
+                    Mode::Realtime
+                } else {
+                    Mode::Lockstep
+                },
+                state_dir: Some(state_dir),
+                dataset: dataset.clone(),
+                frames: args.frames,
+                max_rate: args.max_rate,
+                config,
+            },
+            config_path: args.config.clone(),
+            no_lines: args.no_lines,
+            no_manhattan: args.no_manhattan,
+            run_id,
+            log: log.to_owned(),
+            threads: args.mode == RunMode::Threads,
+            total,
+            out: args.out.clone(),
+            quiet: args.json,
+        };
+        let outcome = pipeline::run(&options)?;
+        outcome.profile.write_json(&args.out.join("profile.json"))?;
+        let poses = pipeline::complete_trajectory(&outcome.received, timestamps);
+        if outcome.interrupted {
+            write_outputs(&args.out, &poses)?;
+            return Err(format!(
+                "interrupted after {} of {total} frames; partial trajectory in {}",
+                outcome.received.len(),
+                args.out.display()
+            )
+            .into());
+        }
+        let timings = Timings::Pipeline(outcome.profile.summary());
+        if !outcome.leftovers.is_empty() {
+            return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
+        }
+        (poses, timings, outcome.keyframes, Some(outcome.restarts))
+    };
+
+    let trajectory = write_outputs(&args.out, &poses)?;
+    let evaluation = match sequence.ground_truth_path() {
+        Some(gt) => Some(evaluate(
+            &Trajectory::read_tum(&gt)?,
+            &trajectory,
+            EVO_MAX_DIFF_S,
+        )?),
+        None => None,
+    };
+    let mut counts = BTreeMap::<&str, usize>::new();
+    for pose in &poses {
+        *counts.entry(pose.status.as_str()).or_default() += 1;
+    }
+    if args.json {
+        let mut object = serde_json::json!({
+            "dataset": dataset.display().to_string(),
+            "mode": format!("{:?}", args.mode).to_lowercase(),
+            "frames": poses.len(),
+            "status": counts,
+            "keyframes": keyframes,
+        });
+        match &timings {
+            Timings::Inline(t) => object["timings_ms"] = serde_json::to_value(t)?,
+            Timings::Pipeline(p) => object["profile"] = serde_json::to_value(p)?,
+        }
+        if let Some(r) = &restarts {
+            object["restarts"] = serde_json::to_value(r)?;
+        }
+        if let Some(e) = &evaluation {
+            object["ate_rmse_m"] = e.ate.stats.rmse.into();
+            object["ate_max_m"] = e.ate.stats.max.into();
+            object["matched"] = e.matched().into();
+        }
+        println!("{object}");
+    } else {
+        print_report(&dataset, &args.out, poses.len(), &counts, &timings);
+        if let Some(r) = restarts.filter(|r| r.values().any(|n| *n > 0)) {
+            println!("restarts    {r:?}");
+        }
+        if let Some(e) = &evaluation {
+            print_ate(e);
+        }
+    }
+    Ok(())
+}
+
+/// Writes `trajectory.txt` (TUM) and `status.txt`; returns the trajectory.
+fn write_outputs(out: &Path, poses: &[FramePose]) -> CliResult<Trajectory> {
+    let mut trajectory = Trajectory::new();
+    let mut status = std::io::BufWriter::new(std::fs::File::create(out.join("status.txt"))?);
+    writeln!(status, "# frame_id timestamp status")?;
+    for pose in poses {
+        trajectory.push(pose.timestamp, pose.world_from_camera);
+        writeln!(status, "{} {:.6} {}", pose.id, pose.timestamp, pose.status)?;
+    }
+    status.flush()?;
+    trajectory.write_tum(&out.join("trajectory.txt"))?;
+    Ok(trajectory)
+}
+
+/// The built-in synthetic sequence, rendered into the cache on first use with a
+/// progress bar.
+fn built_in_sequence(quiet: bool) -> CliResult<PathBuf> {
+    let config = gfs_synth::SynthConfig::default();
+    let bar = progress_bar(config.frames as u64, quiet);
+    bar.set_message("rendering the built-in synthetic sequence (once)");
+    let dir = gfs_synth::cached_sequence(&config, |done| bar.set_position(done as u64))?;
+    bar.finish_and_clear();
+    Ok(dir)
+}
+
+/// A frame progress bar (hidden when `hidden`).
+pub fn progress_bar(total: u64, hidden: bool) -> ProgressBar {
+    if hidden {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(total);
+    if let Ok(style) =
+        ProgressStyle::with_template("{msg} {bar:40} {pos}/{len} frames {per_sec} eta {eta}")
+    {
+        bar.set_style(style);
+    }
+    bar
+}
+
+fn print_ate(e: &Evaluation) {
+    println!(
+        "ATE RMSE {:.4} m (mean {:.4}, median {:.4}, max {:.4}) over {} matched poses",
+        e.ate.stats.rmse,
+        e.ate.stats.mean,
+        e.ate.stats.median,
+        e.ate.stats.max,
+        e.matched()
+    );
+}
+
+fn print_report(
+    dataset: &Path,
+    out: &Path,
+    frames: usize,
+    counts: &BTreeMap<&str, usize>,
+    timings: &Timings,
+) {
+    println!("dataset     {}", dataset.display());
+    println!(
+        "trajectory  {} ({frames} poses)",
+        out.join("trajectory.txt").display()
+    );
+    let statuses = [
+        TrackingStatus::Tracked,
+        TrackingStatus::Degraded,
+        TrackingStatus::Relocalised,
+        TrackingStatus::Predicted,
+    ];
+    let line: Vec<String> = statuses
+        .iter()
+        .map(|s| format!("{} {}", s, counts.get(s.as_str()).copied().unwrap_or(0)))
+        .collect();
+    println!("frames      {}", line.join(", "));
+    match timings {
+        Timings::Pipeline(summary) => print!("{summary}"),
+        Timings::Inline(summary) => {
+            println!(
+                "{:<22}{:>9}{:>9}{:>9}{:>9}{:>7}",
+                "stage (ms)", "median", "p90", "p99", "max", "n"
+            );
+            for (name, s) in summary {
+                println!(
+                    "{name:<22}{:>9.2}{:>9.2}{:>9.2}{:>9.2}{:>7}",
+                    s.median, s.p90, s.p99, s.max, s.count
+                );
+            }
+        }
+    }
+}

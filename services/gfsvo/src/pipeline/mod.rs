@@ -1,0 +1,236 @@
+//! The supervisor of `gfsvo run`: starts the six stages (as processes, or as threads in
+//! `--mode threads`), records the pose of every frame, restarts a stage that dies, and
+//! shuts everything down, leaving nothing of the run in shared memory.
+
+mod children;
+mod recorder;
+mod restarts;
+mod signals;
+mod threads;
+
+pub use recorder::complete_trajectory;
+
+use crate::CliResult;
+use children::StageProcesses;
+use gfs_ipc::profile::Profile;
+use gfs_ipc::{IpcRun, RunId, Service, Stage, ipc, local};
+use gfs_odometry::FramePose;
+use gfs_pipeline::stages::StageSettings;
+use recorder::Recorder;
+use restarts::RestartPolicy;
+use std::collections::BTreeMap;
+use std::ffi::OsString;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+use threads::StageThreads;
+
+/// With no new pose for this long, the run is declared stalled.
+const STALL: Duration = Duration::from_secs(60);
+/// How long stopped stages get to exit before they are killed.
+const STOP_GRACE: Duration = Duration::from_secs(3);
+
+/// How to run the pipeline.
+pub struct PipelineOptions {
+    /// The settings every stage gets.
+    pub settings: StageSettings,
+    /// The config file given on the command line, passed on to the stage processes.
+    pub config_path: Option<PathBuf>,
+    /// Ablation switches, passed on to the stage processes.
+    pub no_lines: bool,
+    /// See `no_lines`.
+    pub no_manhattan: bool,
+    /// The run id (iceoryx2 prefix).
+    pub run_id: RunId,
+    /// Log filter of the stage processes.
+    pub log: String,
+    /// Stages as threads of this process instead of processes.
+    pub threads: bool,
+    /// Number of input frames.
+    pub total: usize,
+    /// Output folder (for `pids.json`).
+    pub out: PathBuf,
+    /// No progress bar.
+    pub quiet: bool,
+}
+
+/// What a pipeline run produced.
+pub struct PipelineOutcome {
+    /// The poses received, by frame id.
+    pub received: BTreeMap<u64, FramePose>,
+    /// Stage stamps of every frame.
+    pub profile: Profile,
+    /// Keyframes made.
+    pub keyframes: usize,
+    /// Restarts per stage.
+    pub restarts: BTreeMap<&'static str, u32>,
+    /// True when SIGINT / SIGTERM ended the run early.
+    pub interrupted: bool,
+    /// Files of the run left in /dev/shm or /tmp/iceoryx2 afterwards (should be none).
+    pub leftovers: Vec<PathBuf>,
+}
+
+/// Runs the pipeline over the dataset until every frame has a pose.
+///
+/// # Errors
+/// When a stage cannot be started or keeps dying, the run stalls, or the transport
+/// fails; every stage is stopped and the run's shared memory removed first.
+pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
+    signals::install();
+    let run = IpcRun::new(options.run_id.clone())?;
+    let policy = RestartPolicy::new(
+        options.settings.config.pipeline.max_restarts,
+        Duration::from_secs(options.settings.config.pipeline.restart_window_s),
+    );
+    let label = if options.threads {
+        "threads"
+    } else {
+        mode_name(options)
+    };
+    if options.threads {
+        let node = run.node::<local::Service>("recorder")?;
+        let recorder = Recorder::new(&run, &node, options.settings.mode, label)?;
+        let mut pool =
+            StageThreads::start(options.run_id.clone(), options.settings.clone(), policy)?;
+        let result = supervise(&run, recorder, options, |_| pool.restart_dead());
+        pool.stop();
+        let totals = Stage::ALL.map(|s| (s.name(), pool.restarts().total(s)));
+        finish(&run, result, totals)
+    } else {
+        let node = run.node::<ipc::Service>("recorder")?;
+        let recorder = Recorder::new(&run, &node, options.settings.mode, label)?;
+        let dir = std::env::current_exe()?
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default();
+        let mut pool = StageProcesses::start(&dir, stage_args(options), policy)?;
+        write_pids(&options.out, &pool.pids());
+        let result = supervise(&run, recorder, options, |run| {
+            let restarted = pool.restart_dead(run)?;
+            if !restarted.is_empty() {
+                write_pids(&options.out, &pool.pids());
+            }
+            Ok(restarted)
+        });
+        pool.stop(STOP_GRACE);
+        if let Err(e) = run.cleanup_dead_nodes::<ipc::Service>() {
+            tracing::warn!("cleaning up the run: {e}");
+        }
+        drop(node);
+        let totals = Stage::ALL.map(|s| (s.name(), pool.restarts().total(s)));
+        finish(&run, result, totals)
+    }
+}
+
+type Supervised = CliResult<(Profile, BTreeMap<u64, FramePose>, usize, bool)>;
+
+/// Records poses until the last frame has one (or a signal came), restarting dead
+/// stages on the way.
+fn supervise<S: Service>(
+    run: &IpcRun,
+    mut recorder: Recorder<S>,
+    options: &PipelineOptions,
+    mut restart_dead: impl FnMut(&IpcRun) -> Result<Vec<Stage>, children::ChildError>,
+) -> Supervised {
+    let last = options.total.saturating_sub(1) as u64;
+    let mut progress = Instant::now();
+    let bar = crate::cmd::run::progress_bar(options.total as u64, options.quiet);
+    let mut interrupted = false;
+    while options.total > 0 && !recorder.has(last) {
+        if recorder.drain()? > 0 {
+            progress = Instant::now();
+            bar.set_position(recorder.len() as u64);
+        }
+        if signals::interrupted() {
+            tracing::warn!("interrupted: stopping the stages");
+            interrupted = true;
+            break;
+        }
+        restart_dead(run)?;
+        if progress.elapsed() > STALL {
+            return Err(format!(
+                "the pipeline stalled: no pose for {} s after {} frames",
+                STALL.as_secs(),
+                recorder.len()
+            )
+            .into());
+        }
+        recorder.wait(Duration::from_millis(20))?;
+    }
+    recorder.drain()?;
+    bar.finish_and_clear();
+    let keyframes = recorder.keyframes();
+    let (profile, received) = recorder.into_profile();
+    Ok((profile, received, keyframes, interrupted))
+}
+
+fn finish(
+    run: &IpcRun,
+    result: Supervised,
+    totals: [(&'static str, u32); Stage::COUNT],
+) -> CliResult<PipelineOutcome> {
+    let leftovers = run.finish();
+    if !leftovers.is_empty() {
+        tracing::warn!("files of the run left behind: {leftovers:?}");
+    }
+    let (profile, received, keyframes, interrupted) = result?;
+    Ok(PipelineOutcome {
+        received,
+        profile,
+        keyframes,
+        restarts: totals.into_iter().collect(),
+        interrupted,
+        leftovers,
+    })
+}
+
+fn mode_name(options: &PipelineOptions) -> &'static str {
+    match options.settings.mode {
+        gfs_ipc::Mode::Lockstep => "lockstep",
+        gfs_ipc::Mode::Realtime => "realtime",
+    }
+}
+
+/// The command line of every stage process.
+fn stage_args(options: &PipelineOptions) -> Vec<OsString> {
+    let s = &options.settings;
+    let mut args: Vec<OsString> = vec![
+        "--dataset".into(),
+        s.dataset.clone().into(),
+        "--run-id".into(),
+        options.run_id.as_str().into(),
+        "--mode".into(),
+        mode_name(options).into(),
+        "--log".into(),
+        options.log.clone().into(),
+    ];
+    let mut push = |flag: &str, value: Option<OsString>| {
+        if let Some(v) = value {
+            args.push(flag.into());
+            args.push(v);
+        }
+    };
+    push("--config", options.config_path.clone().map(Into::into));
+    push("--state-dir", s.state_dir.clone().map(Into::into));
+    push("--frames", s.frames.map(|n| n.to_string().into()));
+    push("--max-rate", s.max_rate.map(|r| r.to_string().into()));
+    if options.no_lines {
+        args.push("--no-lines".into());
+    }
+    if options.no_manhattan {
+        args.push("--no-manhattan".into());
+    }
+    args
+}
+
+/// `pids.json`: the process id of each stage, rewritten at every restart (for
+/// operators and the fault-injection tests).
+fn write_pids(out: &Path, pids: &[(Stage, u32)]) {
+    let map: BTreeMap<&str, u32> = pids.iter().map(|(s, p)| (s.name(), *p)).collect();
+    let tmp = out.join(".pids.json.tmp");
+    let text = serde_json::to_string(&map).unwrap_or_default();
+    if let Err(e) =
+        std::fs::write(&tmp, text).and_then(|()| std::fs::rename(&tmp, out.join("pids.json")))
+    {
+        tracing::warn!("cannot write pids.json: {e}");
+    }
+}

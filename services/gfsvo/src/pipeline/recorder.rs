@@ -1,0 +1,165 @@
+//! The recorder: collects the pose of every frame from the `pose` topic, with the stage
+//! stamps its header carried, and the mapper's stamps from the `local-map` topic.
+
+use gfs_core::ids::FrameId;
+use gfs_ipc::profile::Profile;
+use gfs_ipc::{IpcError, IpcRun, Mode, Service, Stage, TopicSubscriber, topics};
+use gfs_odometry::{FramePose, TrackingStatus};
+use gfs_pipeline::wire::WirePose;
+use iceoryx2::node::Node;
+use nalgebra::Isometry3;
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+/// Poses and profile of a run as they arrive.
+pub struct Recorder<S: Service> {
+    poses: TopicSubscriber<S, WirePose>,
+    maps: TopicSubscriber<S, u8>,
+    received: BTreeMap<u64, FramePose>,
+    keyframes: usize,
+    profile: Profile,
+}
+
+impl<S: Service> Recorder<S> {
+    /// Subscribes to the run's poses (before the stages start, so none is missed).
+    ///
+    /// # Errors
+    /// [`IpcError`] when the topics cannot be opened.
+    pub fn new(run: &IpcRun, node: &Node<S>, mode: Mode, label: &str) -> Result<Self, IpcError> {
+        Ok(Self {
+            poses: TopicSubscriber::create(run, node, topics::POSE.name, &topics::POSE.qos(mode))?,
+            maps: TopicSubscriber::create(
+                run,
+                node,
+                topics::LOCAL_MAP.name,
+                &topics::LOCAL_MAP.qos(mode),
+            )?,
+            received: BTreeMap::new(),
+            keyframes: 0,
+            profile: Profile::new(label),
+        })
+    }
+
+    /// Takes in what arrived; returns the number of new poses.
+    ///
+    /// # Errors
+    /// [`IpcError`] when the transport fails.
+    pub fn drain(&mut self) -> Result<usize, IpcError> {
+        let mut new = 0;
+        while let Some(sample) = self.poses.receive()? {
+            let header = *sample.user_header();
+            let Some(wire) = sample.payload().first() else {
+                continue;
+            };
+            let Some(pose) = wire.pose() else {
+                tracing::warn!(
+                    frame = header.frame_id,
+                    "recorder: dropping a malformed pose"
+                );
+                continue;
+            };
+            // The first pose of a frame wins: a restarted tracker may send one again.
+            if !self.received.contains_key(&pose.id.0) {
+                self.received.insert(pose.id.0, pose);
+                self.keyframes += wire.keyframe as usize;
+                self.profile.record(&header, pose.status.as_str());
+                new += 1;
+            }
+        }
+        while let Some(sample) = self.maps.receive()? {
+            self.profile
+                .record_stage(sample.user_header(), Stage::Mapper);
+        }
+        Ok(new)
+    }
+
+    /// Sleeps until a pose is published or `timeout` passed (a signal cuts it short).
+    ///
+    /// # Errors
+    /// [`IpcError`] when the wait fails for another reason.
+    pub fn wait(&self, timeout: Duration) -> Result<(), IpcError> {
+        match self.poses.wait(timeout) {
+            Ok(_) => Ok(()),
+            Err(IpcError::Wakeup { reason, .. }) if reason.contains("Interrupt") => Ok(()),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// True once frame `last` has a pose (the last input frame).
+    pub fn has(&self, last: u64) -> bool {
+        self.received.contains_key(&last)
+    }
+
+    /// Number of frames with a pose.
+    pub fn len(&self) -> usize {
+        self.received.len()
+    }
+
+    /// Keyframes made over the run.
+    pub fn keyframes(&self) -> usize {
+        self.keyframes
+    }
+
+    /// The profile.
+    pub fn into_profile(self) -> (Profile, BTreeMap<u64, FramePose>) {
+        (self.profile, self.received)
+    }
+}
+
+/// One pose per input frame: frames without a pose from the tracker (dropped in
+/// realtime, or lost to an interruption) hold the previous pose (or, at the start, the
+/// next one), flagged predicted.
+pub fn complete_trajectory(
+    received: &BTreeMap<u64, FramePose>,
+    timestamps: &[f64],
+) -> Vec<FramePose> {
+    let mut out = Vec::with_capacity(timestamps.len());
+    for (i, &timestamp) in timestamps.iter().enumerate() {
+        let id = i as u64;
+        if let Some(pose) = received.get(&id) {
+            out.push(*pose);
+            continue;
+        }
+        let nearest = received
+            .range(..id)
+            .next_back()
+            .or_else(|| received.range(id..).next())
+            .map_or_else(Isometry3::identity, |(_, p)| p.world_from_camera);
+        out.push(FramePose {
+            id: FrameId(id),
+            timestamp,
+            world_from_camera: nearest,
+            status: TrackingStatus::Predicted,
+        });
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn missing_frames_hold_a_neighbouring_pose_flagged_predicted() {
+        let pose = |id: u64, x: f64| FramePose {
+            id: FrameId(id),
+            timestamp: id as f64,
+            world_from_camera: Isometry3::translation(x, 0.0, 0.0),
+            status: TrackingStatus::Tracked,
+        };
+        let received: BTreeMap<u64, FramePose> =
+            [(1, pose(1, 1.0)), (3, pose(3, 3.0))].into_iter().collect();
+        let t = complete_trajectory(&received, &[0.0, 1.0, 2.0, 3.0, 4.0]);
+        let xs: Vec<f64> = t
+            .iter()
+            .map(|p| p.world_from_camera.translation.x)
+            .collect();
+        assert_eq!(xs, [1.0, 1.0, 1.0, 3.0, 3.0]);
+        let predicted: Vec<bool> = t
+            .iter()
+            .map(|p| p.status == TrackingStatus::Predicted)
+            .collect();
+        assert_eq!(predicted, [true, false, true, false, true]);
+        assert_eq!(t[2].timestamp, 2.0);
+    }
+}
