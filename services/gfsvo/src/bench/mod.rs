@@ -5,6 +5,7 @@ mod lines;
 mod planes;
 mod points;
 pub mod stats;
+mod transport;
 
 use crate::CliResult;
 use clap::{Args, Subcommand};
@@ -19,6 +20,9 @@ pub enum BenchCommand {
     Lines(BenchArgs),
     /// Planes: pixel normals, BFS plane extraction, Manhattan axes.
     Planes(BenchArgs),
+    /// Transport latency of a 640x480 RGB-D frame between two processes over iceoryx2
+    /// (median / p90 / p99 / max in µs); needs no dataset.
+    Transport(transport::TransportArgs),
 }
 
 /// Arguments shared by every benchmark.
@@ -50,5 +54,6 @@ pub fn run(command: &BenchCommand) -> CliResult {
         BenchCommand::Points(args) => points::run(args),
         BenchCommand::Lines(args) => lines::run(args),
         BenchCommand::Planes(args) => planes::run(args),
+        BenchCommand::Transport(args) => transport::run(args),
     }
 }
