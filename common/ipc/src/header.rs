@@ -106,7 +106,7 @@ fn span(from: u64, to: u64) -> Option<u64> {
 }
 
 /// The header of every message: which frame, when it was captured, and when each stage
-/// handled it. Fixed layout (`#[repr(C)]`, 168 bytes) shared by all processes.
+/// handled it. Fixed layout (`#[repr(C)]`, 160 bytes) shared by all processes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
 #[type_name("gfsvo::MsgHeader")]
 #[repr(C)]
