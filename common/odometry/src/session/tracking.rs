@@ -48,8 +48,8 @@ pub struct TrackOutput {
 /// from the mapper).
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct TrackingCheckpoint {
-    /// The last frame processed and its `camera_from_world`.
-    pub last: Option<(FrameId, Isometry3<f64>)>,
+    /// The last frame processed, with its features and landmark links.
+    pub last: Option<TrackedFrame>,
     /// The motion model's velocity (`current_from_previous`).
     pub velocity: Option<Isometry3<f64>>,
     /// The reference keyframe.
@@ -80,7 +80,7 @@ pub struct TrackingSession {
     last_request: u64,
     pending: Option<(u64, FrameId)>,
     reset_owed: bool,
-    last: Option<(FrameId, Isometry3<f64>)>,
+    last: Option<TrackedFrame>,
 }
 
 impl TrackingSession {
@@ -144,7 +144,7 @@ impl TrackingSession {
     /// input frame.
     pub fn skip(&mut self, id: FrameId, timestamp: f64) -> FramePose {
         let camera_from_world = self.tracker.predict().unwrap_or_else(Isometry3::identity);
-        self.tracker.finish_frame(TrackedFrame {
+        self.finish(TrackedFrame {
             features: FrameFeatures {
                 id,
                 timestamp,
@@ -156,7 +156,6 @@ impl TrackingSession {
             line_ids: Vec::new(),
             inliers: Default::default(),
         });
-        self.last = Some((id, camera_from_world));
         FramePose {
             id,
             timestamp,
@@ -223,8 +222,7 @@ impl TrackingSession {
             status: frame.status,
         };
         let keyframe = wants_keyframe.then(|| self.request_keyframe(&frame));
-        self.last = Some((frame.features.id, frame.camera_from_world));
-        self.tracker.finish_frame(frame);
+        self.finish(frame);
         Ok(TrackOutput { pose, keyframe })
     }
 
@@ -247,8 +245,8 @@ impl TrackingSession {
         self.tracker.set_reference(kf);
         self.frames_since_keyframe = 0;
         let refined = self.map.keyframe(kf)?.camera_from_world;
-        if let Some(last) = self.last.as_mut().filter(|(id, _)| *id == frame) {
-            last.1 = refined;
+        if let Some(last) = self.last.as_mut().filter(|l| l.features.id == frame) {
+            last.camera_from_world = refined;
             self.tracker.correct_last_pose(refined);
         }
         Some(refined)
@@ -257,7 +255,7 @@ impl TrackingSession {
     /// The state a restarted tracker resumes from (with a map from the mapper).
     pub fn checkpoint(&self) -> TrackingCheckpoint {
         TrackingCheckpoint {
-            last: self.last,
+            last: self.last.clone(),
             velocity: self.tracker.velocity().copied(),
             reference: self.tracker.reference(),
             initialised: self.initialised,
@@ -284,28 +282,28 @@ impl TrackingSession {
         if let Some(reference) = checkpoint.reference {
             self.tracker.set_reference(reference);
         }
-        if let Some((id, camera_from_world)) = checkpoint.last {
-            // Two finished frames without features give the motion model back its last
-            // pose and velocity; the next frame is then matched against the reference
-            // keyframe and the local map rather than the lost last frame.
-            let pose_only = |camera_from_world| TrackedFrame {
-                features: FrameFeatures {
-                    id,
-                    ..FrameFeatures::default()
-                },
-                camera_from_world,
-                status: TrackingStatus::Tracked,
-                point_ids: Vec::new(),
-                line_ids: Vec::new(),
-                inliers: Default::default(),
-            };
+        if let Some(last) = checkpoint.last {
+            // A finished frame posed one velocity step earlier gives the motion model
+            // back its velocity; then the last frame itself, for frame-to-frame matching.
             if let Some(velocity) = checkpoint.velocity {
-                self.tracker
-                    .finish_frame(pose_only(velocity.inverse() * camera_from_world));
+                self.tracker.finish_frame(TrackedFrame {
+                    features: FrameFeatures::default(),
+                    camera_from_world: velocity.inverse() * last.camera_from_world,
+                    status: TrackingStatus::Tracked,
+                    point_ids: Vec::new(),
+                    line_ids: Vec::new(),
+                    inliers: Default::default(),
+                });
             }
-            self.tracker.finish_frame(pose_only(camera_from_world));
-            self.last = checkpoint.last;
+            self.tracker.finish_frame(last.clone());
+            self.last = Some(last);
         }
+    }
+
+    /// Hands the frame to the tracker as its last frame, keeping a copy for checkpoints.
+    fn finish(&mut self, frame: TrackedFrame) {
+        self.last = Some(frame.clone());
+        self.tracker.finish_frame(frame);
     }
 
     fn request_keyframe(&mut self, frame: &TrackedFrame) -> KeyFrameRequest {

@@ -30,6 +30,10 @@ struct Ports<S: Service> {
     keyframes: TopicPublisher<S, u8>,
 }
 
+/// The map answering a keyframe request: the mapper's header (its stamps) and the
+/// refined keyframe pose (`camera_from_world`).
+type MapAnswer = (MsgHeader, Option<Isometry3<f64>>);
+
 /// A keyframe request sent and not answered yet.
 struct Outstanding {
     header: MsgHeader,
@@ -139,7 +143,7 @@ fn resume(state: &StateDir, session: &mut TrackingSession) -> Result<u64, StageE
         tracing::warn!("tracker: {e}; starting a new map");
         None
     });
-    let next = checkpoint.last.map_or(0, |(id, _)| id.0 + 1);
+    let next = checkpoint.last.as_ref().map_or(0, |l| l.features.id.0 + 1);
     tracing::info!(frame = next, "tracker: resuming from its checkpoint");
     session.restore(checkpoint, map);
     Ok(next)
@@ -173,7 +177,7 @@ fn receive_features<S: Service>(
 fn take_maps<S: Service>(
     maps: &TopicSubscriber<S, u8>,
     session: &mut TrackingSession,
-) -> Result<Option<(MsgHeader, Option<Isometry3<f64>>)>, StageError> {
+) -> Result<Option<MapAnswer>, StageError> {
     let mut answer = None;
     while let Some((header, update)) =
         maps.receive_decoded::<MapUpdate>(MAX_VARIABLE_MESSAGE_BYTES)?
@@ -196,7 +200,7 @@ fn await_map<S: Service>(
     ports: &Ports<S>,
     session: &mut TrackingSession,
     outstanding: &mut Option<Outstanding>,
-) -> Result<Option<(MsgHeader, Option<Isometry3<f64>>)>, StageError> {
+) -> Result<Option<MapAnswer>, StageError> {
     loop {
         if let Some(answer) = take_maps(&ports.maps, session)? {
             *outstanding = None;

@@ -59,8 +59,9 @@ impl<S: Service> Recorder<S> {
                 continue;
             };
             // The first pose of a frame wins: a restarted tracker may send one again.
-            if !self.received.contains_key(&pose.id.0) {
-                self.received.insert(pose.id.0, pose);
+            if let std::collections::btree_map::Entry::Vacant(slot) = self.received.entry(pose.id.0)
+            {
+                slot.insert(pose);
                 self.keyframes += wire.keyframe as usize;
                 self.profile.record(&header, pose.status.as_str());
                 new += 1;

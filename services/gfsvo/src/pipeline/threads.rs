@@ -9,12 +9,15 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 
+/// A stage thread: its result is the reason it ended, if it failed.
+type StageThread = JoinHandle<Result<(), String>>;
+
 /// The running stage threads.
 pub struct StageThreads {
     run_id: RunId,
     settings: StageSettings,
     stop: Arc<AtomicBool>,
-    threads: Vec<(Stage, Option<JoinHandle<Result<(), String>>>)>,
+    threads: Vec<(Stage, Option<StageThread>)>,
     policy: RestartPolicy,
 }
 
@@ -84,7 +87,7 @@ impl StageThreads {
         }
     }
 
-    fn spawn(&self, stage: Stage) -> Result<JoinHandle<Result<(), String>>, ChildError> {
+    fn spawn(&self, stage: Stage) -> Result<StageThread, ChildError> {
         let (run_id, settings, stop) = (
             self.run_id.clone(),
             self.settings.clone(),
