@@ -5,7 +5,8 @@ use crate::config::{Config, ConfigError};
 use crate::state::{StateDir, StateError};
 use gfs_ipc::topics::TopicSpec;
 use gfs_ipc::{
-    IpcError, IpcRun, Mode, Service, Stage, TopicPublisher, TopicSubscriber, ZeroCopySend,
+    IpcError, IpcRun, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
+    ZeroCopySend,
 };
 use iceoryx2::node::{Node, NodeWaitFailure};
 use std::fmt::Debug;
@@ -16,6 +17,22 @@ use std::time::Duration;
 
 /// How long an idle stage sleeps between looks at its inputs when no wake-up comes.
 pub const POLL: Duration = Duration::from_millis(2);
+
+/// Sets `stage`'s received stamp to when its last input was published (`ready_ns`, or
+/// the latest finished stamp in `header` when 0), so that the stage's queueing time is
+/// how long a ready input waited for it.
+pub fn mark_ready(header: &mut MsgHeader, stage: Stage, ready_ns: u64) {
+    let latest = header
+        .stamps
+        .iter()
+        .map(|s| s.finished_ns)
+        .max()
+        .unwrap_or(0);
+    match ready_ns.max(latest) {
+        0 => header.mark_received(stage),
+        ns => header.stamp_mut(stage).received_ns = ns,
+    }
+}
 
 /// A stage could not start or its transport failed.
 #[derive(Debug, thiserror::Error)]

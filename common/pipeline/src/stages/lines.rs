@@ -1,6 +1,6 @@
 //! `lines`: homogenised line segments with LBD descriptors and 3D lines of every frame.
 
-use super::context::{POLL, StageContext, StageError};
+use super::context::{POLL, StageContext, StageError, mark_ready};
 use crate::wire::WireLine;
 use gfs_ipc::{Mode, Service, Stage, frame_view, topics};
 use gfs_lines::{LineExtractor, LineFeatures};
@@ -31,7 +31,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             continue;
         };
         let mut header = *sample.user_header();
-        header.mark_received(Stage::Lines);
+        mark_ready(&mut header, Stage::Lines, 0);
         header.mark_started(Stage::Lines);
         features.clear();
         match frame_view(&sample) {

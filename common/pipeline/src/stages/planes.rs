@@ -2,7 +2,7 @@
 //! lines (from the `lines` stage), with the axes' identity kept by the tracker's
 //! predicted rotation (from the last pose).
 
-use super::context::{POLL, StageContext, StageError};
+use super::context::{POLL, StageContext, StageError, mark_ready};
 use crate::wire::{WireLine, WireManhattan, WirePose};
 use gfs_ipc::{Mode, Service, Stage, frame_view, topics};
 use gfs_lines::Line3;
@@ -29,7 +29,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let poses = ctx.subscribe::<WirePose>(topics::POSE)?;
     let publisher = ctx.publish::<WireManhattan>(topics::MANHATTAN, 1)?;
     let mut predicted: Option<Rotation3<f64>> = None;
-    let mut lines3d: BTreeMap<u64, Vec<Line3>> = BTreeMap::new();
+    let mut lines3d: BTreeMap<u64, (u64, Vec<Line3>)> = BTreeMap::new();
     while !ctx.stopping() {
         // Lockstep: the pose of frame k-1 is queued before frame k is published.
         while let Some(pose) = poses.receive()? {
@@ -48,29 +48,33 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         };
         let mut header = *sample.user_header();
         let id = header.frame_id;
-        header.mark_received(Stage::Planes);
         let mut axes = None;
         if use_manhattan {
             let deadline = Instant::now() + ctx.feature_deadline();
             while !lines3d.contains_key(&id) && Instant::now() < deadline && !ctx.stopping() {
                 while let Some(s) = lines.receive()? {
-                    let frame = s.user_header().frame_id;
+                    let (frame, published) = (
+                        s.user_header().frame_id,
+                        s.user_header().stamp(Stage::Lines).finished_ns,
+                    );
                     if frame >= id {
-                        lines3d.insert(frame, s.payload().iter().map(WireLine::line3).collect());
+                        let lines = s.payload().iter().map(WireLine::line3).collect();
+                        lines3d.insert(frame, (published, lines));
                     }
                 }
                 if !lines3d.contains_key(&id) {
                     ctx.wait(&lines, POLL)?;
                 }
             }
-            let frame_lines = lines3d.remove(&id).unwrap_or_else(|| {
+            let (published, frame_lines) = lines3d.remove(&id).unwrap_or_else(|| {
                 tracing::warn!(
                     frame = id,
                     "planes: no lines before the deadline; planes only"
                 );
-                Vec::new()
+                (0, Vec::new())
             });
             lines3d.retain(|k, _| *k > id);
+            mark_ready(&mut header, Stage::Planes, published);
             header.mark_started(Stage::Planes);
             match frame_view(&sample) {
                 Ok(frame) => {
@@ -84,6 +88,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                 Err(e) => tracing::warn!(frame = id, "planes: bad frame: {e}"),
             }
         } else {
+            mark_ready(&mut header, Stage::Planes, 0);
             header.mark_started(Stage::Planes);
         }
         drop(sample);

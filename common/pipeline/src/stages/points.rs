@@ -1,6 +1,6 @@
 //! `points`: ORB keypoints with depth and descriptors of every frame.
 
-use super::context::{POLL, StageContext, StageError};
+use super::context::{POLL, StageContext, StageError, mark_ready};
 use crate::wire::WireKeyPoint;
 use gfs_ipc::{Mode, Service, Stage, frame_view, topics};
 use gfs_points::{OrbExtractor, OrbFeatures};
@@ -29,7 +29,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             continue;
         };
         let mut header = *sample.user_header();
-        header.mark_received(Stage::Points);
+        mark_ready(&mut header, Stage::Points, 0);
         header.mark_started(Stage::Points);
         features.clear();
         match frame_view(&sample) {

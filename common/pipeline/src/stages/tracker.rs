@@ -3,7 +3,7 @@
 //! pose. Lockstep: a keyframe's pose is published after the mapper refined it, as the
 //! in-process odometry does, so both give the same trajectory.
 
-use super::context::{POLL, StageContext, StageError};
+use super::context::{POLL, StageContext, StageError, mark_ready};
 use super::join::{FrameJoin, Joined};
 use super::mapper::MAP_CHECKPOINT;
 use crate::state::StateDir;
@@ -85,7 +85,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             ctx.wait(&ports.manhattan, POLL)?;
             continue;
         };
-        header.mark_received(Stage::Tracker);
+        mark_ready(&mut header, Stage::Tracker, 0);
         header.mark_started(Stage::Tracker);
         let (id, timestamp) = (features.id, features.timestamp);
         let (mut pose, request) = match session.process(features) {

@@ -92,6 +92,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         .frames
         .map_or(sequence.len(), |n| n.min(sequence.len()));
     let timestamps = &sequence.timestamps()[..total];
+    let clock = std::time::Instant::now();
 
     let (poses, timings, keyframes, restarts) = if args.mode == RunMode::Inline {
         let progress = progress_bar(total as u64, args.json);
@@ -150,6 +151,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         (poses, timings, outcome.keyframes, Some(outcome.restarts))
     };
 
+    let wall_s = clock.elapsed().as_secs_f64();
     let trajectory = write_outputs(&args.out, &poses)?;
     let evaluation = match sequence.ground_truth_path() {
         Some(gt) => Some(evaluate(
@@ -170,6 +172,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             "frames": poses.len(),
             "status": counts,
             "keyframes": keyframes,
+            "wall_s": wall_s,
+            "frames_per_s": poses.len() as f64 / wall_s.max(1e-9),
         });
         match &timings {
             Timings::Inline(t) => object["timings_ms"] = serde_json::to_value(t)?,
@@ -186,6 +190,10 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         println!("{object}");
     } else {
         print_report(&dataset, &args.out, poses.len(), &counts, &timings);
+        println!(
+            "wall        {wall_s:.2} s, {:.1} frames/s",
+            poses.len() as f64 / wall_s.max(1e-9)
+        );
         if let Some(r) = restarts.filter(|r| r.values().any(|n| *n > 0)) {
             println!("restarts    {r:?}");
         }
