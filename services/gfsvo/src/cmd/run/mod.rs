@@ -94,12 +94,13 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let timestamps = &sequence.timestamps()[..total];
     let clock = std::time::Instant::now();
 
-    let (poses, timings, keyframes, restarts) = if args.mode == RunMode::Inline {
+    let (poses, processed, timings, keyframes, restarts) = if args.mode == RunMode::Inline {
         let progress = progress_bar(total as u64, args.json);
         let outcome = inline::run(&config, config.odometry(), &sequence, total, &progress)?;
         progress.finish_and_clear();
         let timings = Timings::Inline(outcome.timings);
-        (outcome.poses, timings, outcome.keyframes, None)
+        let processed = outcome.poses.len();
+        (outcome.poses, processed, timings, outcome.keyframes, None)
     } else {
         let state_dir = args.out.join("state");
         if state_dir.exists() {
@@ -148,7 +149,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         if !outcome.leftovers.is_empty() {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
         }
-        (poses, timings, outcome.keyframes, Some(outcome.restarts))
+        let processed = outcome.received.len();
+        (poses, processed, timings, outcome.keyframes, Some(outcome.restarts))
     };
 
     let wall_s = clock.elapsed().as_secs_f64();
@@ -173,7 +175,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             "status": counts,
             "keyframes": keyframes,
             "wall_s": wall_s,
-            "frames_per_s": poses.len() as f64 / wall_s.max(1e-9),
+            "processed": processed,
+            "processed_per_s": processed as f64 / wall_s.max(1e-9),
         });
         match &timings {
             Timings::Inline(t) => object["timings_ms"] = serde_json::to_value(t)?,
@@ -191,8 +194,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     } else {
         print_report(&dataset, &args.out, poses.len(), &counts, &timings);
         println!(
-            "wall        {wall_s:.2} s, {:.1} frames/s",
-            poses.len() as f64 / wall_s.max(1e-9)
+            "wall        {wall_s:.2} s, {processed} frames processed, {:.1} per second",
+            processed as f64 / wall_s.max(1e-9)
         );
         if let Some(r) = restarts.filter(|r| r.values().any(|n| *n > 0)) {
             println!("restarts    {r:?}");
