@@ -93,8 +93,10 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         drop(sample);
         header.mark_finished(Stage::Planes);
-        let wire: Vec<WireManhattan> = axes.iter().map(WireManhattan::new).collect();
-        publisher.publish_slice(&header, &wire)?;
+        match &axes {
+            Some(a) => publisher.publish_slice(&header, &[WireManhattan::new(a)])?,
+            None => publisher.publish_slice(&header, &[])?,
+        };
     }
     Ok(())
 }

@@ -107,9 +107,10 @@ impl<S: Service> Recorder<S> {
     }
 }
 
-/// One pose per input frame: frames without a pose from the tracker (dropped in
-/// realtime, or lost to an interruption) hold the previous pose (or, at the start, the
-/// next one), flagged predicted.
+/// One pose per input frame: a frame without a pose from the tracker (dropped in
+/// realtime, or lost to an interruption) gets the pose interpolated at its timestamp
+/// between the neighbouring frames that have one (held beyond the first or last),
+/// flagged predicted.
 pub fn complete_trajectory(
     received: &BTreeMap<u64, FramePose>,
     timestamps: &[f64],
@@ -121,15 +122,20 @@ pub fn complete_trajectory(
             out.push(*pose);
             continue;
         }
-        let nearest = received
-            .range(..id)
-            .next_back()
-            .or_else(|| received.range(id..).next())
-            .map_or_else(Isometry3::identity, |(_, p)| p.world_from_camera);
+        let before = received.range(..id).next_back().map(|(_, p)| p);
+        let after = received.range(id..).next().map(|(_, p)| p);
+        let world_from_camera = match (before, after) {
+            (Some(a), Some(b)) if b.timestamp > a.timestamp => {
+                let t = ((timestamp - a.timestamp) / (b.timestamp - a.timestamp)).clamp(0.0, 1.0);
+                a.world_from_camera.lerp_slerp(&b.world_from_camera, t)
+            }
+            (Some(p), _) | (None, Some(p)) => p.world_from_camera,
+            (None, None) => Isometry3::identity(),
+        };
         out.push(FramePose {
             id: FrameId(id),
             timestamp,
-            world_from_camera: nearest,
+            world_from_camera,
             status: TrackingStatus::Predicted,
         });
     }
@@ -141,7 +147,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn missing_frames_hold_a_neighbouring_pose_flagged_predicted() {
+    fn missing_frames_are_interpolated_and_flagged_predicted() {
         let pose = |id: u64, x: f64| FramePose {
             id: FrameId(id),
             timestamp: id as f64,
@@ -155,7 +161,7 @@ mod tests {
             .iter()
             .map(|p| p.world_from_camera.translation.x)
             .collect();
-        assert_eq!(xs, [1.0, 1.0, 1.0, 3.0, 3.0]);
+        assert_eq!(xs, [1.0, 1.0, 2.0, 3.0, 3.0]);
         let predicted: Vec<bool> = t
             .iter()
             .map(|p| p.status == TrackingStatus::Predicted)
