@@ -128,7 +128,24 @@ impl Config {
             message: e.to_string(),
         })?;
         config.camera()?;
+        config
+            .validate_stages()
+            .map_err(|message| ConfigError::Parse {
+                path: origin.to_owned(),
+                message,
+            })?;
         Ok(config)
+    }
+
+    /// Checks the tables the stages validate when they start, so that a bad value is
+    /// reported once, here, rather than by a stage that then dies on every restart.
+    fn validate_stages(&self) -> Result<(), String> {
+        self.points.validate().map_err(|e| e.to_string())?;
+        self.lines
+            .detect
+            .validate()
+            .map_err(|e| format!("lines.detect.{e}"))?;
+        self.planes.validate().map_err(|e| e.to_string())
     }
 
     /// The config in `path`; else the folder's own `synthetic.toml` (written by
@@ -278,6 +295,11 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("a.toml") && e.contains("fy"), "{e}");
+        let cam = "[camera]\nfx=5.0\nfy=5.0\ncx=1.0\ncy=1.0\nwidth=4\nheight=4\n";
+        let e = Config::from_toml(&format!("{cam}[points]\nfeatures = 0\n"), "p.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("p.toml") && e.contains("points.features"), "{e}");
         let bad = "[camera]\nfx=-5.0\nfy=5.0\ncx=1.0\ncy=1.0\nwidth=4\nheight=4\n";
         let e = Config::from_toml(bad, "b.toml").unwrap_err().to_string();
         assert!(e.contains("camera.fx"), "{e}");
