@@ -46,6 +46,9 @@ enum Command {
     /// Per-stage timing table (median / p90 / p99 / max) of a pipeline run's profile.json
     /// and a PNG of each stage's processing time over the frames.
     Profile(cmd::profile::ProfileArgs),
+    /// Record the poses and stage profile of a pipeline whose stages run as services
+    /// (systemd): trajectory.txt, status.txt, profile.json, until SIGINT / SIGTERM.
+    Record(cmd::record::RecordArgs),
 }
 
 fn main() -> ExitCode {
@@ -57,6 +60,7 @@ fn main() -> ExitCode {
         Command::Synth(args) => cmd::synth::run(args),
         Command::Bench(command) => bench::run(command),
         Command::Profile(args) => cmd::profile::run(args),
+        Command::Record(args) => cmd::record::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

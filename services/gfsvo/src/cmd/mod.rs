@@ -2,5 +2,6 @@
 
 pub mod eval;
 pub mod profile;
+pub mod record;
 pub mod run;
 pub mod synth;

@@ -5,10 +5,10 @@
 mod children;
 mod recorder;
 mod restarts;
-mod signals;
+pub mod signals;
 mod threads;
 
-pub use recorder::complete_trajectory;
+pub use recorder::{Recorder, complete_trajectory};
 
 use crate::CliResult;
 use children::StageProcesses;
@@ -16,7 +16,6 @@ use gfs_ipc::profile::Profile;
 use gfs_ipc::{IpcRun, RunId, Service, Stage, ipc, local};
 use gfs_odometry::FramePose;
 use gfs_pipeline::stages::StageSettings;
-use recorder::Recorder;
 use restarts::RestartPolicy;
 use std::collections::BTreeMap;
 use std::ffi::OsString;

@@ -101,7 +101,17 @@ impl<S: Service> Recorder<S> {
         self.keyframes
     }
 
-    /// The profile.
+    /// The poses received so far, by frame id.
+    pub fn poses(&self) -> &BTreeMap<u64, FramePose> {
+        &self.received
+    }
+
+    /// The profile so far.
+    pub fn profile(&self) -> &Profile {
+        &self.profile
+    }
+
+    /// The profile and the poses received.
     pub fn into_profile(self) -> (Profile, BTreeMap<u64, FramePose>) {
         (self.profile, self.received)
     }
