@@ -150,7 +150,13 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
         }
         let processed = outcome.received.len();
-        (poses, processed, timings, outcome.keyframes, Some(outcome.restarts))
+        (
+            poses,
+            processed,
+            timings,
+            outcome.keyframes,
+            Some(outcome.restarts),
+        )
     };
 
     let wall_s = clock.elapsed().as_secs_f64();
