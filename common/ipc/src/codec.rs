@@ -1,4 +1,4 @@
-//! Variable-size messages (keyframes, local-map snapshots, control): serde values
+//! Variable-size messages (keyframes, local-map snapshots): serde values
 //! encoded with bincode 2 into a `[u8]` payload.
 //!
 //! Decoding never trusts the bytes: the payload length is checked against a limit

@@ -55,16 +55,9 @@ pub const LOCAL_MAP: TopicSpec = TopicSpec {
     name: "local-map",
     kind: TopicKind::Variable,
 };
-/// Supervisor -> stages: typed control messages such as stop or reset (bincode).
-pub const CONTROL: TopicSpec = TopicSpec {
-    name: "control",
-    kind: TopicKind::Variable,
-};
 
 /// Every topic of the pipeline.
-pub const ALL: [TopicSpec; 8] = [
-    FRAME, POINTS, LINES, MANHATTAN, POSE, KEYFRAME, LOCAL_MAP, CONTROL,
-];
+pub const ALL: [TopicSpec; 7] = [FRAME, POINTS, LINES, MANHATTAN, POSE, KEYFRAME, LOCAL_MAP];
 
 #[cfg(test)]
 mod tests {

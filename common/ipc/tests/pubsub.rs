@@ -273,11 +273,18 @@ fn malformed_variable_messages_are_dropped_not_fatal() {
         let mut good = Vec::new();
         gfs_ipc::encode_message(&msg(1, 10), &mut good).unwrap();
         let header = stamped_header(4);
-        // garbage, valid, truncated, oversized, valid-with-trailing-byte, valid
+        let max = 4096;
+        // garbage, valid; then truncated, oversized, valid-with-trailing-byte, valid
+        // (each batch within the subscriber's queue of 4)
         publisher.publish_slice(&header, &[0xFF; 40]).unwrap();
         publisher
             .publish_encoded(&header, &msg(1, 10), &mut scratch)
             .unwrap();
+        let (h1, m1) = subscriber
+            .receive_decoded::<KeyFrameMsg>(max)
+            .unwrap()
+            .unwrap();
+        assert_eq!((h1.frame_id, m1), (4, msg(1, 10)));
         publisher
             .publish_slice(&header, &good[..good.len() - 5])
             .unwrap();
@@ -288,13 +295,6 @@ fn malformed_variable_messages_are_dropped_not_fatal() {
         publisher
             .publish_encoded(&header, &msg(2, 300), &mut scratch)
             .unwrap();
-
-        let max = 4096;
-        let (h1, m1) = subscriber
-            .receive_decoded::<KeyFrameMsg>(max)
-            .unwrap()
-            .unwrap();
-        assert_eq!((h1.frame_id, m1), (4, msg(1, 10)));
         let (_, m2) = subscriber
             .receive_decoded::<KeyFrameMsg>(max)
             .unwrap()

@@ -51,6 +51,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let clock = Instant::now();
     let mut first_timestamp = None;
     for index in start..total {
+        if ctx.stopping() {
+            return Ok(());
+        }
         let Some(item) = reader.next() else { break };
         let timestamp = match &item {
             Ok(frame) => frame.timestamp,
