@@ -109,7 +109,6 @@ impl Mapper {
                 &self.config,
                 manhattan,
                 self.use_lines,
-                self.close_depth_m,
             );
         }
         self.cull_keyframes(map, kf);

@@ -40,13 +40,14 @@ pub struct PoseSolver {
 
 impl PoseSolver {
     /// Optimises `camera_from_world` from the matches in `point_ids` / `line_ids`; the
-    /// outliers' entries are cleared. Keypoint depths below `close_depth_m` add the
-    /// RGB-D depth error (ORB-SLAM2 trusts depth only up to 40 baselines). Returns the
-    /// inlier counts.
+    /// outliers' entries are cleared. Every keypoint with a depth adds the RGB-D depth
+    /// error, as ORB-SLAM2's pose optimisation uses the stereo error for every keypoint
+    /// with a right coordinate (its inverse-depth form weighs far points little); without
+    /// it, distant points leave the rotation-translation ambiguity of a narrow view open.
+    /// Returns the inlier counts.
     #[allow(clippy::too_many_arguments)]
     pub fn solve(
         &mut self,
-        close_depth_m: f32,
         map: &Map,
         frame: &FrameFeatures,
         camera: &PinholeCamera,
@@ -66,11 +67,7 @@ impl PoseSolver {
                 point_in_world: point.position.coords,
                 uv: Vector2::new(f64::from(kp.u), f64::from(kp.v)),
                 inv_sigma2: scale.inv_sigma2(kp.level),
-                depth: if kp.depth < close_depth_m {
-                    f64::from(kp.depth)
-                } else {
-                    0.0
-                },
+                depth: f64::from(kp.depth),
             });
             self.point_index.push(i);
         }

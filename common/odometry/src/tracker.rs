@@ -430,7 +430,6 @@ impl Tracker {
     /// number of inliers (points + lines).
     fn optimise(&mut self, map: &Map, frame: &mut TrackedFrame) -> usize {
         frame.inliers = self.solver.solve(
-            self.config.close_depth_m,
             map,
             &frame.features,
             &self.camera,
