@@ -185,17 +185,28 @@ impl Tracker {
     /// Matches the map landmarks of the last frame by projection and optimises.
     fn track_last_frame(&mut self, map: &mut Map, frame: &mut TrackedFrame) -> bool {
         let Some(last) = &self.last else { return false };
+        // When the last frame became the reference keyframe, its landmarks are the
+        // keyframe's: the tracked ones (after fusion) and the ones created from its
+        // depth, as ORB-SLAM2's RGB-D `CreateNewKeyFrame` links them to the frame.
+        let keyframe = self
+            .reference
+            .and_then(|id| map.keyframe(id))
+            .filter(|k| k.features.id == last.features.id);
+        let (point_ids, line_ids) = match keyframe {
+            Some(k) => (&k.point_ids, &k.line_ids),
+            None => (&last.point_ids, &last.line_ids),
+        };
         self.candidates.clear();
-        for (i, id) in last.point_ids.iter().enumerate() {
-            if let Some(id) = id {
+        for (i, id) in point_ids.iter().enumerate() {
+            if let (Some(id), Some(kp)) = (id, last.features.keypoints.get(i)) {
                 self.candidates.push(ProjectionCandidate {
                     id: *id,
-                    angle: Some(last.features.keypoints[i].angle),
+                    angle: Some(kp.angle),
                 });
             }
         }
         self.local_lines.clear();
-        self.local_lines.extend(last.line_ids.iter().flatten());
+        self.local_lines.extend(line_ids.iter().flatten());
         let pose = frame.camera_from_world;
         let radius = self.config.points.radius_last_frame;
         let mut matched = self.search_points(map, &pose, frame, radius, false, false);
