@@ -62,6 +62,16 @@ impl StructureExtractor {
         })
     }
 
+    /// The axes the next frame's are labelled against (the estimator's history).
+    pub fn previous_axes(&self) -> Option<&Rotation3<f64>> {
+        self.manhattan.previous()
+    }
+
+    /// Resumes with the history of a checkpoint.
+    pub fn restore_previous_axes(&mut self, previous: Option<Rotation3<f64>>) {
+        self.manhattan.restore(previous);
+    }
+
     /// The Manhattan axes of a frame from its depth and its valid 3D lines (camera
     /// frame); `predicted_rotation` (`current_from_previous`) keeps the axes' identity.
     ///

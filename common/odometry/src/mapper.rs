@@ -71,6 +71,17 @@ impl Mapper {
         }
     }
 
+    /// The map points created recently and not yet confirmed or culled (the mapper's
+    /// only state besides the map, for checkpoints).
+    pub fn recent_points(&self) -> &[MapPointId] {
+        &self.recent_points
+    }
+
+    /// Resumes with the recent points of a checkpoint.
+    pub fn restore_recent_points(&mut self, points: Vec<MapPointId>) {
+        self.recent_points = points;
+    }
+
     /// Makes `frame` a keyframe of `map` and runs local mapping. Returns its id.
     pub fn add_keyframe(
         &mut self,

@@ -131,6 +131,17 @@ impl Tracker {
         self.last = Some(frame);
     }
 
+    /// The motion model (for checkpoints).
+    pub fn motion(&self) -> &MotionModel {
+        &self.motion
+    }
+
+    /// Resumes from a checkpoint: the motion model and the last frame as they were.
+    pub fn restore(&mut self, motion: MotionModel, last: TrackedFrame) {
+        self.motion = motion;
+        self.last = Some(last);
+    }
+
     /// Replaces the last frame's pose by a refined one (its keyframe's after the local
     /// BA), keeping the motion model's velocity.
     pub fn correct_last_pose(&mut self, camera_from_world: Isometry3<f64>) {

@@ -76,6 +76,11 @@ impl ManhattanEstimator {
         self.previous = None;
     }
 
+    /// Resumes with the previous axes of a checkpoint (see [`Self::previous`]).
+    pub fn restore(&mut self, previous: Option<Rotation3<f64>>) {
+        self.previous = previous;
+    }
+
     /// The axes of the last frame that had them, moved by the predicted rotations of
     /// the frames without MA since; `None` before the first MA or after [`Self::reset`].
     pub fn previous(&self) -> Option<&Rotation3<f64>> {

@@ -74,6 +74,9 @@ impl MappingSession {
             let kf = self
                 .mapper
                 .add_keyframe(&mut self.map, &request.frame, &mut self.manhattan);
+            // A canonical layout, as a mapper restarted from this map will have: local
+            // mapping then goes on the same whether or not the mapper was restarted.
+            self.map.canonicalise();
             self.last_applied = request.seq;
             self.last_keyframe = Some(kf);
         }
@@ -87,6 +90,7 @@ impl MappingSession {
             keyframe: self.last_keyframe,
             map: &self.map,
             manhattan: &self.manhattan,
+            recent_points: self.mapper.recent_points(),
         }
     }
 
@@ -95,6 +99,8 @@ impl MappingSession {
         self.last_applied = update.seq;
         self.last_keyframe = update.keyframe;
         self.map = update.map;
+        self.map.canonicalise();
         self.manhattan = update.manhattan;
+        self.mapper.restore_recent_points(update.recent_points);
     }
 }

@@ -50,6 +50,9 @@ pub struct MapUpdate {
     pub map: Map,
     /// The world Manhattan axes after mapping.
     pub manhattan: WorldManhattan,
+    /// The mapper's recently created points still on probation: not used by the
+    /// tracker, but part of the mapper's checkpoint (this message).
+    pub recent_points: Vec<MapPointId>,
 }
 
 /// [`MapUpdate`] borrowed from the mapper, to encode without copying the map.
@@ -63,6 +66,8 @@ pub struct MapUpdateRef<'a> {
     pub map: &'a Map,
     /// See [`MapUpdate::manhattan`].
     pub manhattan: &'a WorldManhattan,
+    /// See [`MapUpdate::recent_points`].
+    pub recent_points: &'a [MapPointId],
 }
 
 impl MapUpdateRef<'_> {
@@ -73,6 +78,7 @@ impl MapUpdateRef<'_> {
             keyframe: self.keyframe,
             map: self.map.clone(),
             manhattan: self.manhattan.clone(),
+            recent_points: self.recent_points.to_vec(),
         }
     }
 }

@@ -2,18 +2,20 @@
 //! its copy of the map, recovers when lost, decides keyframes and asks the mapping half
 //! for them, and takes in the maps the mapping half sends back.
 
+use super::messages::SightingCount;
 use super::messages::{KeyFrameRequest, MapUpdate};
-use super::sightings::SightingBaseline;
+use super::sightings::{SightingBaseline, apply_sightings};
 use crate::config::OdometryConfig;
 use crate::frame::{FeatureError, FrameFeatures};
 use crate::keyframe_policy::needs_keyframe;
 use crate::manhattan::WorldManhattan;
 use crate::map::Map;
+use crate::motion::MotionModel;
 use crate::relocalise::relocalise;
 use crate::status::TrackingStatus;
 use crate::tracker::{TrackedFrame, Tracker};
 use gfs_core::camera::PinholeCamera;
-use gfs_core::ids::{FrameId, KeyFrameId};
+use gfs_core::ids::{FrameId, KeyFrameId, MapLineId, MapPointId};
 use gfs_lines::grid::GridConfig;
 use nalgebra::{Isometry3, Rotation3};
 use serde::{Deserialize, Serialize};
@@ -50,8 +52,12 @@ pub struct TrackOutput {
 pub struct TrackingCheckpoint {
     /// The last frame processed, with its features and landmark links.
     pub last: Option<TrackedFrame>,
-    /// The motion model's velocity (`current_from_previous`).
-    pub velocity: Option<Isometry3<f64>>,
+    /// The motion model.
+    pub motion: MotionModel,
+    /// Point sightings counted since the last map arrived (the mapper culls on them).
+    pub point_sightings: Vec<SightingCount<MapPointId>>,
+    /// Line sightings counted since the last map arrived.
+    pub line_sightings: Vec<SightingCount<MapLineId>>,
     /// The reference keyframe.
     pub reference: Option<KeyFrameId>,
     /// Whether a map was started.
@@ -62,6 +68,8 @@ pub struct TrackingCheckpoint {
     pub lost_streak: u32,
     /// The last keyframe request number used.
     pub last_request: u64,
+    /// The request the map tracked against answered.
+    pub map_seq: u64,
     /// The world Manhattan axes.
     pub manhattan: WorldManhattan,
 }
@@ -81,6 +89,7 @@ pub struct TrackingSession {
     pending: Option<(u64, FrameId)>,
     reset_owed: bool,
     last: Option<TrackedFrame>,
+    map_seq: u64,
 }
 
 impl TrackingSession {
@@ -105,6 +114,7 @@ impl TrackingSession {
             pending: None,
             reset_owed: false,
             last: None,
+            map_seq: 0,
             config,
             camera,
         }
@@ -231,12 +241,22 @@ impl TrackingSession {
     /// (`camera_from_world`); if that keyframe's frame was the last one tracked, the
     /// motion model continues from the refined pose, as ORB-SLAM2 places its last frame
     /// relative to its reference keyframe (`Tracking::UpdateLastFrame`).
+    /// A map older than the one held, or newer than the requests made, is ignored (a
+    /// restarted tracker receives the last few maps again).
     pub fn apply(&mut self, update: MapUpdate) -> Option<Isometry3<f64>> {
-        let (kept, _) = self.sightings.since(&self.map);
+        let answers = self.pending.is_some_and(|(seq, _)| seq == update.seq);
+        let stale = update.seq < self.map_seq || (update.seq == self.map_seq && !answers);
+        // A map answering a request this tracker has not made (yet): a restarted
+        // tracker makes that request again and takes the answer then.
+        if stale || update.seq > self.last_request {
+            return None;
+        }
+        self.map_seq = update.seq;
+        let (points, lines) = self.sightings.since(&self.map);
         self.map = update.map;
         self.map.canonicalise();
         self.sightings.reset(&self.map);
-        super::sightings::apply_sightings(&mut self.map, &kept, &[]);
+        apply_sightings(&mut self.map, &points, &lines);
         self.manhattan = update.manhattan;
         let answered = self.pending.filter(|(seq, _)| *seq == update.seq);
         let (_, frame) = answered?;
@@ -254,20 +274,25 @@ impl TrackingSession {
 
     /// The state a restarted tracker resumes from (with a map from the mapper).
     pub fn checkpoint(&self) -> TrackingCheckpoint {
+        let (point_sightings, line_sightings) = self.sightings.since(&self.map);
         TrackingCheckpoint {
             last: self.last.clone(),
-            velocity: self.tracker.velocity().copied(),
+            motion: self.tracker.motion().clone(),
+            point_sightings,
+            line_sightings,
             reference: self.tracker.reference(),
             initialised: self.initialised,
             frames_since_keyframe: self.frames_since_keyframe,
             lost_streak: self.lost_streak,
             last_request: self.last_request,
+            map_seq: self.map_seq,
             manhattan: self.manhattan.clone(),
         }
     }
 
-    /// Resumes from a checkpoint and the latest map (`None`: no map was published, so
-    /// tracking starts a new map where the checkpoint left off).
+    /// Resumes from a checkpoint and the map it tracked against (`checkpoint.map_seq`;
+    /// `None`: no map was published, so tracking starts a new map where the checkpoint
+    /// left off).
     pub fn restore(&mut self, checkpoint: TrackingCheckpoint, map: Option<MapUpdate>) {
         self.last_request = checkpoint.last_request;
         self.frames_since_keyframe = checkpoint.frames_since_keyframe;
@@ -275,27 +300,21 @@ impl TrackingSession {
         self.manhattan = checkpoint.manhattan;
         self.initialised = checkpoint.initialised && map.is_some();
         if let Some(update) = map {
+            self.map_seq = update.seq;
             self.map = update.map;
             self.map.canonicalise();
             self.sightings.reset(&self.map);
+            apply_sightings(
+                &mut self.map,
+                &checkpoint.point_sightings,
+                &checkpoint.line_sightings,
+            );
         }
         if let Some(reference) = checkpoint.reference {
             self.tracker.set_reference(reference);
         }
         if let Some(last) = checkpoint.last {
-            // A finished frame posed one velocity step earlier gives the motion model
-            // back its velocity; then the last frame itself, for frame-to-frame matching.
-            if let Some(velocity) = checkpoint.velocity {
-                self.tracker.finish_frame(TrackedFrame {
-                    features: FrameFeatures::default(),
-                    camera_from_world: velocity.inverse() * last.camera_from_world,
-                    status: TrackingStatus::Tracked,
-                    point_ids: Vec::new(),
-                    line_ids: Vec::new(),
-                    inliers: Default::default(),
-                });
-            }
-            self.tracker.finish_frame(last.clone());
+            self.tracker.restore(checkpoint.motion, last.clone());
             self.last = Some(last);
         }
     }

@@ -3,11 +3,29 @@
 //! sends is also its checkpoint, which a restarted mapper (and tracker) resumes from.
 
 use super::context::{POLL, StageContext, StageError};
+use crate::state::{StateDir, StateError};
 use gfs_ipc::{MAX_VARIABLE_MESSAGE_BYTES, Service, Stage, encode_message, topics};
 use gfs_odometry::session::{KeyFrameRequest, MapUpdate, MappingSession};
 
-/// The checkpoint: the last map sent (a bincode [`MapUpdate`]).
-pub const MAP_CHECKPOINT: &str = "map.bin";
+/// The checkpoints: the last two maps sent (bincode [`MapUpdate`]s), by the parity of
+/// the request they answer, so that a restarted tracker finds the one it tracked
+/// against even when the mapper answered its last request after it died.
+pub const MAP_CHECKPOINTS: [&str; 2] = ["map.0.bin", "map.1.bin"];
+
+/// The maps in the checkpoints, newest first.
+///
+/// # Errors
+/// [`StateError`] when a checkpoint exists but cannot be read.
+pub fn saved_maps(state: &StateDir) -> Result<Vec<MapUpdate>, StateError> {
+    let mut maps = Vec::new();
+    for name in MAP_CHECKPOINTS {
+        if let Some(map) = state.read::<MapUpdate>(name)? {
+            maps.push(map);
+        }
+    }
+    maps.sort_by(|a, b| b.seq.cmp(&a.seq));
+    Ok(maps)
+}
 
 /// A map message is sized for this many bytes at first (grows as needed).
 const TYPICAL_MAP_BYTES: usize = 4 << 20;
@@ -22,7 +40,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let (scale, levels) = ctx.pyramid()?;
     let mut session = MappingSession::new(&ctx.config().odometry(), camera, scale, levels);
     let state = ctx.state();
-    if let Some(update) = state.read::<MapUpdate>(MAP_CHECKPOINT)? {
+    if let Some(update) = saved_maps(&state)?.into_iter().next() {
         tracing::info!(
             request = update.seq,
             "mapper: resuming from the last map sent"
@@ -52,7 +70,8 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         header.mark_finished(Stage::Mapper);
         publisher.publish_slice(&header, &bytes)?;
-        state.write_bytes(MAP_CHECKPOINT, &bytes)?;
+        let name = MAP_CHECKPOINTS[(session.last_applied() % 2) as usize];
+        state.write_bytes(name, &bytes)?;
     }
     Ok(())
 }

@@ -11,6 +11,9 @@ use nalgebra::Rotation3;
 use std::collections::BTreeMap;
 use std::time::Instant;
 
+/// The checkpoint: the last frame done and the axes the next one is labelled against.
+const CHECKPOINT: &str = "planes.bin";
+
 /// Runs the planes stage until told to stop. With the Manhattan axes switched off
 /// (ablation) it publishes "no axes" for every frame.
 ///
@@ -28,6 +31,16 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let lines = ctx.subscribe::<WireLine>(topics::LINES)?;
     let poses = ctx.subscribe::<WirePose>(topics::POSE)?;
     let publisher = ctx.publish::<WireManhattan>(topics::MANHATTAN, 1)?;
+    let state = ctx.state();
+    let mut scratch = Vec::new();
+    // The last frame done and the axes history: a restarted stage labels the axes of
+    // the next frame as the killed one would have, and skips frames it already did
+    // (a restarted source publishes its last frame again).
+    let mut done = None;
+    if let Some((frame, previous)) = state.read::<(u64, Option<Rotation3<f64>>)>(CHECKPOINT)? {
+        structure.restore_previous_axes(previous);
+        done = Some(frame);
+    }
     let mut predicted: Option<Rotation3<f64>> = None;
     let mut lines3d: BTreeMap<u64, (u64, Vec<Line3>)> = BTreeMap::new();
     while !ctx.stopping() {
@@ -48,6 +61,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         };
         let mut header = *sample.user_header();
         let id = header.frame_id;
+        if done.is_some_and(|d| id <= d) {
+            continue;
+        }
         let mut axes = None;
         if use_manhattan {
             let deadline = Instant::now() + ctx.feature_deadline();
@@ -97,6 +113,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             Some(a) => publisher.publish_slice(&header, &[WireManhattan::new(a)])?,
             None => publisher.publish_slice(&header, &[])?,
         };
+        let history = structure.previous_axes().copied();
+        state.write(CHECKPOINT, &(id, history), &mut scratch)?;
+        done = Some(id);
     }
     Ok(())
 }

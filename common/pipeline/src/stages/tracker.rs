@@ -5,7 +5,7 @@
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
 use super::join::{FrameJoin, Joined};
-use super::mapper::MAP_CHECKPOINT;
+use super::mapper::saved_maps;
 use crate::state::StateDir;
 use crate::wire::{WireKeyPoint, WireLine, WireManhattan, WirePose};
 use gfs_ipc::{
@@ -139,10 +139,16 @@ fn resume(state: &StateDir, session: &mut TrackingSession) -> Result<u64, StageE
     let Some(checkpoint) = state.read::<TrackingCheckpoint>(CHECKPOINT)? else {
         return Ok(0);
     };
-    let map = state.read::<MapUpdate>(MAP_CHECKPOINT).unwrap_or_else(|e| {
+    let mut maps = saved_maps(state).unwrap_or_else(|e| {
         tracing::warn!("tracker: {e}; starting a new map");
-        None
+        Vec::new()
     });
+    // The map it tracked against, else the newest.
+    let map = maps
+        .iter()
+        .position(|m| m.seq == checkpoint.map_seq)
+        .or((!maps.is_empty()).then_some(0))
+        .map(|i| maps.swap_remove(i));
     let next = checkpoint.last.as_ref().map_or(0, |l| l.features.id.0 + 1);
     tracing::info!(frame = next, "tracker: resuming from its checkpoint");
     session.restore(checkpoint, map);
