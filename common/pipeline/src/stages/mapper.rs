@@ -23,7 +23,7 @@ pub fn saved_maps(state: &StateDir) -> Result<Vec<MapUpdate>, StateError> {
             maps.push(map);
         }
     }
-    maps.sort_by(|a, b| b.seq.cmp(&a.seq));
+    maps.sort_by_key(|m| std::cmp::Reverse(m.seq));
     Ok(maps)
 }
 
