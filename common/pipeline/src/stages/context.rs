@@ -5,8 +5,8 @@ use crate::config::{Config, ConfigError};
 use crate::state::{StateDir, StateError};
 use gfs_ipc::topics::TopicSpec;
 use gfs_ipc::{
-    IpcError, IpcRun, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
-    ZeroCopySend,
+    IpcError, IpcRun, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSample,
+    TopicSubscriber, ZeroCopySend,
 };
 use iceoryx2::node::{Node, NodeWaitFailure};
 use std::fmt::Debug;
@@ -160,6 +160,29 @@ impl<S: Service> StageContext<S> {
             Err(IpcError::Wakeup { reason, .. }) if reason.contains("Interrupt") => Ok(()),
             Err(e) => Err(e),
         }
+    }
+
+    /// The next frame to work on: the oldest queued in lockstep, the newest in realtime
+    /// (older ones are dropped). `None` after idling up to `idle` when none is queued;
+    /// the idle `publisher` then lets restarted subscribers connect to its history.
+    ///
+    /// # Errors
+    /// [`IpcError`] when the transport fails.
+    pub fn next_frame<P: Debug + ZeroCopySend + 'static>(
+        &self,
+        frames: &TopicSubscriber<S, u8>,
+        publisher: &TopicPublisher<S, P>,
+        idle: Duration,
+    ) -> Result<Option<TopicSample<S, u8>>, IpcError> {
+        let sample = match self.mode() {
+            Mode::Lockstep => frames.receive()?,
+            Mode::Realtime => frames.receive_latest()?,
+        };
+        if sample.is_none() {
+            publisher.update_connections()?;
+            self.wait(frames, idle)?;
+        }
+        Ok(sample)
     }
 
     /// The run's checkpoint folder.

@@ -2,7 +2,7 @@
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
 use crate::wire::WireLine;
-use gfs_ipc::{Mode, Service, Stage, frame_view, topics};
+use gfs_ipc::{Service, Stage, frame_view, topics};
 use gfs_lines::{LineExtractor, LineFeatures};
 
 /// Lines a frame message is sized for at first (homogenisation keeps 30 to 150).
@@ -21,13 +21,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let frames = ctx.subscribe::<u8>(topics::FRAME)?;
     let publisher = ctx.publish::<WireLine>(topics::LINES, TYPICAL_LINES)?;
     while !ctx.stopping() {
-        let sample = match ctx.mode() {
-            Mode::Lockstep => frames.receive()?,
-            Mode::Realtime => frames.receive_latest()?,
-        };
-        let Some(sample) = sample else {
-            publisher.update_connections()?;
-            ctx.wait(&frames, POLL * 25)?;
+        let Some(sample) = ctx.next_frame(&frames, &publisher, POLL * 25)? else {
             continue;
         };
         let mut header = *sample.user_header();

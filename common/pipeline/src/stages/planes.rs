@@ -4,7 +4,7 @@
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
 use crate::wire::{WireLine, WireManhattan, WirePose};
-use gfs_ipc::{Mode, Service, Stage, frame_view, topics};
+use gfs_ipc::{Service, Stage, frame_view, topics};
 use gfs_lines::Line3;
 use gfs_odometry::StructureExtractor;
 use nalgebra::Rotation3;
@@ -50,13 +50,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                 predicted = p.predicted_rotation();
             }
         }
-        let sample = match ctx.mode() {
-            Mode::Lockstep => frames.receive()?,
-            Mode::Realtime => frames.receive_latest()?,
-        };
-        let Some(sample) = sample else {
-            publisher.update_connections()?;
-            ctx.wait(&frames, POLL * 5)?;
+        let Some(sample) = ctx.next_frame(&frames, &publisher, POLL * 5)? else {
             continue;
         };
         let mut header = *sample.user_header();
