@@ -125,11 +125,6 @@ impl<S: Service> StageContext<S> {
         })
     }
 
-    /// The stage.
-    pub fn stage(&self) -> Stage {
-        self.stage
-    }
-
     /// True once the stage was asked to stop (signal or flag).
     pub fn stopping(&self) -> bool {
         if self.stop.load(Ordering::Relaxed) {
