@@ -4,12 +4,32 @@
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
 use crate::wire::{WireLine, WireManhattan, WirePose};
-use gfs_ipc::{Service, Stage, frame_view, topics};
+use gfs_ipc::{Mode, Service, Stage, TopicSubscriber, frame_view, topics};
 use gfs_lines::Line3;
 use gfs_odometry::StructureExtractor;
 use nalgebra::Rotation3;
 use std::collections::BTreeMap;
 use std::time::Instant;
+
+/// The tracker's predicted rotation (`current_from_previous`) from the newest pose.
+#[derive(Default)]
+struct Prediction {
+    frame: Option<u64>,
+    rotation: Option<Rotation3<f64>>,
+}
+
+impl Prediction {
+    /// Takes in the poses queued.
+    fn take<S: Service>(&mut self, poses: &TopicSubscriber<S, WirePose>) -> Result<(), StageError> {
+        while let Some(pose) = poses.receive()? {
+            if let Some(p) = pose.payload().first() {
+                self.frame = Some(p.frame_id);
+                self.rotation = p.predicted_rotation();
+            }
+        }
+        Ok(())
+    }
+}
 
 /// The checkpoint: the last frame done and the axes the next one is labelled against.
 const CHECKPOINT: &str = "planes.bin";
@@ -41,15 +61,10 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         structure.restore_previous_axes(previous);
         done = Some(frame);
     }
-    let mut predicted: Option<Rotation3<f64>> = None;
+    let mut predicted = Prediction::default();
     let mut lines3d: BTreeMap<u64, (u64, Vec<Line3>)> = BTreeMap::new();
     while !ctx.stopping() {
-        // Lockstep: the pose of frame k-1 is queued before frame k is published.
-        while let Some(pose) = poses.receive()? {
-            if let Some(p) = pose.payload().first() {
-                predicted = p.predicted_rotation();
-            }
-        }
+        predicted.take(&poses)?;
         let Some(sample) = ctx.next_frame(&frames, &publisher, POLL * 5)? else {
             continue;
         };
@@ -60,6 +75,18 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         let mut axes = None;
         if use_manhattan {
+            // Lockstep: the pose of frame k-1 was published before frame k, but a
+            // restarted stage may see the frame before the pose topic's history.
+            if ctx.mode() == Mode::Lockstep && id > 0 {
+                let deadline = Instant::now() + ctx.feature_deadline();
+                while predicted.frame.is_none_or(|f| f + 1 < id)
+                    && Instant::now() < deadline
+                    && !ctx.stopping()
+                {
+                    ctx.wait(&poses, POLL)?;
+                    predicted.take(&poses)?;
+                }
+            }
             let deadline = Instant::now() + ctx.feature_deadline();
             while !lines3d.contains_key(&id) && Instant::now() < deadline && !ctx.stopping() {
                 while let Some(s) = lines.receive()? {
@@ -89,7 +116,12 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             match frame_view(&sample) {
                 Ok(frame) => {
                     axes = structure
-                        .extract(&frame.depth(), &camera, &frame_lines, predicted.as_ref())
+                        .extract(
+                            &frame.depth(),
+                            &camera,
+                            &frame_lines,
+                            predicted.rotation.as_ref(),
+                        )
                         .unwrap_or_else(|e| {
                             tracing::warn!(frame = id, "planes: {e}");
                             None
