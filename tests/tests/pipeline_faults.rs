@@ -12,7 +12,7 @@
 
 use gfs_ipc::{IpcRun, Mode, RunId, TopicSubscriber, ipc, topics};
 use gfs_pipeline::wire::WirePose;
-use gfs_synth::{SynthConfig, SynthSequence};
+use gfs_synth::{SplitMix64, SynthConfig, SynthSequence};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -219,18 +219,11 @@ fn kill_at(run_id: &str, out: &Path, stage: &str, at: &[u64], child: &mut Child)
     kills
 }
 
-/// Three frames in thirds of the sequence, from a seed (SplitMix64).
+/// Three frames in thirds of the sequence, from a seed.
 fn random_frames(seed: u64) -> [u64; 3] {
-    let mut state = seed;
-    let mut next = || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    };
+    let mut rng = SplitMix64::new(seed);
     let third = (FRAMES / 3) as u64;
-    [0, 1, 2].map(|k| k * third + 5 + next() % (third - 15))
+    [0, 1, 2].map(|k| k * third + 5 + rng.next_u64() % (third - 15))
 }
 
 fn run_id(tag: &str) -> String {

@@ -13,7 +13,7 @@
 use std::fmt::Debug;
 use std::time::Duration;
 
-use iceoryx2::port::listener::Listener;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
@@ -304,13 +304,17 @@ impl<S: Service, T: Debug + ZeroCopySend + 'static> TopicSubscriber<S, T> {
     /// without a wake-up. The listener can also be attached to an iceoryx2 `WaitSet`
     /// ([`Self::listener`]) to wait on several topics at once.
     ///
+    /// A wait cut short by a signal returns `Ok(false)`: the caller then looks at its
+    /// stop request (a stage's SIGTERM) or simply waits again.
+    ///
     /// # Errors
-    /// [`IpcError::Wakeup`] when the wait fails (e.g. interrupted by a signal).
+    /// [`IpcError::Wakeup`] when the wait fails for another reason.
     pub fn wait(&self, timeout: Duration) -> Result<bool, IpcError> {
-        self.listener
-            .timed_wait(|_| (), timeout)
-            .map(|n| n > 0)
-            .map_err(|e| wakeup_error(&self.topic, "wait", e))
+        match self.listener.timed_wait(|_| (), timeout) {
+            Ok(n) => Ok(n > 0),
+            Err(ListenerWaitError::InterruptSignal) => Ok(false),
+            Err(e) => Err(wakeup_error(&self.topic, "wait", e)),
+        }
     }
 
     /// The wake-up listener of this subscriber (for an iceoryx2 `WaitSet`).

@@ -131,6 +131,11 @@ impl Tracker {
         self.last = Some(frame);
     }
 
+    /// The last frame finished, with its features and matches.
+    pub fn last_frame(&self) -> Option<&TrackedFrame> {
+        self.last.as_ref()
+    }
+
     /// The motion model (for checkpoints).
     pub fn motion(&self) -> &MotionModel {
         &self.motion

@@ -88,7 +88,6 @@ pub struct TrackingSession {
     last_request: u64,
     pending: Option<(u64, FrameId)>,
     reset_owed: bool,
-    last: Option<TrackedFrame>,
     map_seq: u64,
 }
 
@@ -113,7 +112,6 @@ impl TrackingSession {
             last_request: 0,
             pending: None,
             reset_owed: false,
-            last: None,
             map_seq: 0,
             config,
             camera,
@@ -154,7 +152,7 @@ impl TrackingSession {
     /// input frame.
     pub fn skip(&mut self, id: FrameId, timestamp: f64) -> FramePose {
         let camera_from_world = self.tracker.predict().unwrap_or_else(Isometry3::identity);
-        self.finish(TrackedFrame {
+        self.tracker.finish_frame(TrackedFrame {
             features: FrameFeatures {
                 id,
                 timestamp,
@@ -232,7 +230,7 @@ impl TrackingSession {
             status: frame.status,
         };
         let keyframe = wants_keyframe.then(|| self.request_keyframe(&frame));
-        self.finish(frame);
+        self.tracker.finish_frame(frame);
         Ok(TrackOutput { pose, keyframe })
     }
 
@@ -265,8 +263,7 @@ impl TrackingSession {
         self.tracker.set_reference(kf);
         self.frames_since_keyframe = 0;
         let refined = self.map.keyframe(kf)?.camera_from_world;
-        if let Some(last) = self.last.as_mut().filter(|l| l.features.id == frame) {
-            last.camera_from_world = refined;
+        if self.tracker.last_frame().map(|l| l.features.id) == Some(frame) {
             self.tracker.correct_last_pose(refined);
         }
         Some(refined)
@@ -276,7 +273,7 @@ impl TrackingSession {
     pub fn checkpoint(&self) -> TrackingCheckpoint {
         let (point_sightings, line_sightings) = self.sightings.since(&self.map);
         TrackingCheckpoint {
-            last: self.last.clone(),
+            last: self.tracker.last_frame().cloned(),
             motion: self.tracker.motion().clone(),
             point_sightings,
             line_sightings,
@@ -314,15 +311,8 @@ impl TrackingSession {
             self.tracker.set_reference(reference);
         }
         if let Some(last) = checkpoint.last {
-            self.tracker.restore(checkpoint.motion, last.clone());
-            self.last = Some(last);
+            self.tracker.restore(checkpoint.motion, last);
         }
-    }
-
-    /// Hands the frame to the tracker as its last frame, keeping a copy for checkpoints.
-    fn finish(&mut self, frame: TrackedFrame) {
-        self.last = Some(frame.clone());
-        self.tracker.finish_frame(frame);
     }
 
     fn request_keyframe(&mut self, frame: &TrackedFrame) -> KeyFrameRequest {

@@ -140,23 +140,6 @@ impl<S: Service> StageContext<S> {
         false
     }
 
-    /// Sleeps until `subscriber`'s topic is published to or `timeout` passed. A wait cut
-    /// short by a signal is not an error: the loop then looks at the stop request.
-    ///
-    /// # Errors
-    /// [`IpcError`] other than an interrupted wait.
-    pub fn wait<T: Debug + ZeroCopySend + 'static>(
-        &self,
-        subscriber: &TopicSubscriber<S, T>,
-        timeout: Duration,
-    ) -> Result<(), IpcError> {
-        match subscriber.wait(timeout) {
-            Ok(_) => Ok(()),
-            Err(IpcError::Wakeup { reason, .. }) if reason.contains("Interrupt") => Ok(()),
-            Err(e) => Err(e),
-        }
-    }
-
     /// The next frame to work on: the oldest queued in lockstep, the newest in realtime
     /// (older ones are dropped). `None` after idling up to `idle` when none is queued;
     /// the idle `publisher` then lets restarted subscribers connect to its history.
@@ -175,7 +158,7 @@ impl<S: Service> StageContext<S> {
         };
         if sample.is_none() {
             publisher.update_connections()?;
-            self.wait(frames, idle)?;
+            frames.wait(idle)?;
         }
         Ok(sample)
     }

@@ -55,7 +55,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             requests.receive_decoded::<KeyFrameRequest>(MAX_VARIABLE_MESSAGE_BYTES)?
         else {
             publisher.update_connections()?;
-            ctx.wait(&requests, POLL * 25)?;
+            requests.wait(POLL * 25)?;
             continue;
         };
         header.mark_received(Stage::Mapper);

@@ -83,7 +83,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                     && Instant::now() < deadline
                     && !ctx.stopping()
                 {
-                    ctx.wait(&poses, POLL)?;
+                    poses.wait(POLL)?;
                     predicted.take(&poses)?;
                 }
             }
@@ -100,7 +100,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                     }
                 }
                 if !lines3d.contains_key(&id) {
-                    ctx.wait(&lines, POLL)?;
+                    lines.wait(POLL)?;
                 }
             }
             let (published, frame_lines) = lines3d.remove(&id).unwrap_or_else(|| {

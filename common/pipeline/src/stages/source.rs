@@ -155,7 +155,7 @@ fn await_pose<S: Service>(
             return Ok(false);
         }
         publisher.update_connections()?;
-        ctx.wait(poses, POLL * 5)?;
+        poses.wait(POLL * 5)?;
         if since.elapsed() > ctx.resend_after() {
             tracing::warn!(
                 frame = id,

@@ -82,7 +82,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             ports.poses.update_connections()?;
             ports.keyframes.update_connections()?;
             resend_if_stale(ctx, &ports.keyframes, &mut outstanding)?;
-            ctx.wait(&ports.manhattan, POLL)?;
+            ports.manhattan.wait(POLL)?;
             continue;
         };
         mark_ready(&mut header, Stage::Tracker, 0);
@@ -217,7 +217,7 @@ fn await_map<S: Service>(
         }
         ports.keyframes.update_connections()?;
         resend_if_stale(ctx, &ports.keyframes, outstanding)?;
-        ctx.wait(&ports.maps, POLL)?;
+        ports.maps.wait(POLL)?;
     }
 }
 

@@ -3,10 +3,10 @@
 //! SIGINT / SIGTERM, refreshing the files every few seconds.
 
 use crate::CliResult;
+use crate::cmd::run::write_outputs;
 use crate::pipeline::{Recorder, signals};
 use gfs_ipc::{IpcRun, Mode, RunId, ipc};
 use gfs_odometry::FramePose;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -62,15 +62,7 @@ pub fn run(args: &RecordArgs) -> CliResult {
 
 fn write(recorder: &Recorder<ipc::Service>, out: &Path) -> CliResult {
     let poses: Vec<FramePose> = recorder.poses().values().copied().collect();
-    let mut trajectory = gfs_dataset::Trajectory::new();
-    let mut status = std::io::BufWriter::new(std::fs::File::create(out.join("status.txt"))?);
-    writeln!(status, "# frame_id timestamp status")?;
-    for pose in &poses {
-        trajectory.push(pose.timestamp, pose.world_from_camera);
-        writeln!(status, "{} {:.6} {}", pose.id, pose.timestamp, pose.status)?;
-    }
-    status.flush()?;
-    trajectory.write_tum(&out.join("trajectory.txt"))?;
+    write_outputs(out, &poses)?;
     recorder.profile().write_json(&out.join("profile.json"))?;
     Ok(())
 }

@@ -77,13 +77,9 @@ impl<S: Service> Recorder<S> {
     /// Sleeps until a pose is published or `timeout` passed (a signal cuts it short).
     ///
     /// # Errors
-    /// [`IpcError`] when the wait fails for another reason.
+    /// [`IpcError`] when the wait fails.
     pub fn wait(&self, timeout: Duration) -> Result<(), IpcError> {
-        match self.poses.wait(timeout) {
-            Ok(_) => Ok(()),
-            Err(IpcError::Wakeup { reason, .. }) if reason.contains("Interrupt") => Ok(()),
-            Err(e) => Err(e),
-        }
+        self.poses.wait(timeout).map(|_| ())
     }
 
     /// True once frame `last` has a pose (the last input frame).

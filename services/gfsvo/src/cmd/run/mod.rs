@@ -214,7 +214,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
 }
 
 /// Writes `trajectory.txt` (TUM) and `status.txt`; returns the trajectory.
-fn write_outputs(out: &Path, poses: &[FramePose]) -> CliResult<Trajectory> {
+pub fn write_outputs(out: &Path, poses: &[FramePose]) -> CliResult<Trajectory> {
     let mut trajectory = Trajectory::new();
     let mut status = std::io::BufWriter::new(std::fs::File::create(out.join("status.txt"))?);
     writeln!(status, "# frame_id timestamp status")?;
