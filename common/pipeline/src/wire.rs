@@ -188,12 +188,10 @@ pub struct WirePose {
 
 impl WirePose {
     /// The wire form of a pose.
-    pub fn new(pose: &FramePose, predicted: Option<&Rotation3<f64>>, keyframe: bool) -> Self {
+    pub fn new(pose: &FramePose, predicted: Option<&UnitQuaternion<f64>>, keyframe: bool) -> Self {
         let t = pose.world_from_camera.translation.vector;
         let q = pose.world_from_camera.rotation.coords;
-        let p = predicted
-            .map(|r| UnitQuaternion::from_rotation_matrix(r).coords)
-            .map_or([0.0; 4], |c| [c.x, c.y, c.z, c.w]);
+        let p = predicted.map_or([0.0; 4], |r| [r.i, r.j, r.k, r.w]);
         Self {
             frame_id: pose.id.0,
             timestamp: pose.timestamp,
@@ -292,11 +290,10 @@ mod tests {
             ),
             status: TrackingStatus::Relocalised,
         };
-        let r = Rotation3::from_euler_angles(0.01, 0.02, 0.03);
+        let r = UnitQuaternion::from_euler_angles(0.01, 0.02, 0.03);
         let w = WirePose::new(&pose, Some(&r), true);
         assert_eq!(w.pose(), Some(pose));
-        let back = w.predicted_rotation().unwrap();
-        assert!(back.angle_to(&r) < 1e-12);
+        assert_eq!(w.predicted_rotation(), Some(r.to_rotation_matrix()));
         assert_eq!(WirePose::new(&pose, None, false).predicted_rotation(), None);
     }
 

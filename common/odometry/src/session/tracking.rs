@@ -17,7 +17,7 @@ use crate::tracker::{TrackedFrame, Tracker};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{FrameId, KeyFrameId, MapLineId, MapPointId};
 use gfs_lines::grid::GridConfig;
-use nalgebra::{Isometry3, Rotation3};
+use nalgebra::{Isometry3, Rotation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
 /// Inliers a relocalisation needs (ORB-SLAM2 asks 50 after its final optimisation).
@@ -131,9 +131,13 @@ impl TrackingSession {
     /// The predicted rotation from the last frame to the next (`current_from_previous`),
     /// which keeps the Manhattan axes' identity in the front end.
     pub fn predicted_rotation(&self) -> Option<Rotation3<f64>> {
-        self.tracker
-            .velocity()
-            .map(|v| v.rotation.to_rotation_matrix())
+        self.predicted_quaternion().map(|q| q.to_rotation_matrix())
+    }
+
+    /// [`Self::predicted_rotation`] as the motion model holds it (what the tracker
+    /// sends, so that the planes stage converts it exactly as the in-process path).
+    pub fn predicted_quaternion(&self) -> Option<UnitQuaternion<f64>> {
+        self.tracker.velocity().map(|v| v.rotation)
     }
 
     /// The keyframe request still waiting for its map (number and frame), if any.

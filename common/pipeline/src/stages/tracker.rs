@@ -124,7 +124,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             }
         }
         header.mark_finished(Stage::Tracker);
-        let predicted = session.predicted_rotation();
+        let predicted = session.predicted_quaternion();
         let wire = WirePose::new(&pose, predicted.as_ref(), keyframe);
         ports.poses.publish_slice(&header, &[wire])?;
         state.write(CHECKPOINT, &session.checkpoint(), &mut scratch)?;
