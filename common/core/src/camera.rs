@@ -184,6 +184,11 @@ pub struct CameraConfig {
     /// Radial r^6 coefficient (default 0).
     #[serde(default)]
     pub k3: f64,
+    /// Rolling-shutter readout time, first row to last, seconds (default 0: a global
+    /// shutter). The tracker re-times each observation to the middle row with the
+    /// camera's angular velocity.
+    #[serde(default)]
+    pub readout_s: f64,
 }
 
 /// A camera config value that cannot describe a camera.
@@ -243,6 +248,12 @@ impl Camera {
             c.cy,
             c.cy >= 0.0 && c.cy < c.height as f64,
             "must lie inside the image",
+        )?;
+        check(
+            "readout_s",
+            c.readout_s,
+            (0.0..=1.0).contains(&c.readout_s),
+            "must be a time in seconds between 0 and 1",
         )?;
         for (field, v) in [
             ("k1", c.k1),
@@ -499,6 +510,7 @@ mod tests {
             p1: -0.005358,
             p2: 0.002628,
             k3: 1.163314,
+            readout_s: 0.0,
         })
         .unwrap()
     }
@@ -596,6 +608,7 @@ mod tests {
             p1: 0.0,
             p2: 0.0,
             k3: 0.0,
+            readout_s: 0.0,
         };
         c.fy = -1.0;
         let e = Camera::from_config(&c).unwrap_err();
@@ -607,6 +620,14 @@ mod tests {
                 .unwrap_err()
                 .to_string()
                 .contains("camera.cx")
+        );
+        c.cx = 320.0;
+        c.readout_s = -0.01;
+        assert!(
+            Camera::from_config(&c)
+                .unwrap_err()
+                .to_string()
+                .contains("camera.readout_s")
         );
     }
 }

@@ -104,6 +104,7 @@ fn camera(k1: f64) -> Camera {
         p1: 0.0,
         p2: 0.0,
         k3: 0.0,
+        readout_s: 0.0,
     })
     .unwrap()
 }

@@ -45,6 +45,11 @@ pub struct TrackingConfig {
     /// Depth below which a keypoint counts as close (ORB-SLAM2 `ThDepth`: 40 baselines of
     /// a Kinect, 3.1 m). Close points get map points at keyframe creation.
     pub close_depth_m: f32,
+    /// Rolling-shutter readout time of the camera, first row to last, seconds; 0 for a
+    /// global shutter. A camera property: filled from `[camera] readout_s`, not read
+    /// from this table.
+    #[serde(skip)]
+    pub readout_s: f64,
 }
 
 impl Default for TrackingConfig {
@@ -61,6 +66,7 @@ impl Default for TrackingConfig {
             frames_before_new_map: 5,
             min_initial_points: 100,
             close_depth_m: 3.1,
+            readout_s: 0.0,
         }
     }
 }

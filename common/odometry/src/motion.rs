@@ -1,20 +1,29 @@
 //! Constant-velocity motion model: the pose prediction every tracking step starts from.
 
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Vector3};
 
 /// Predicts `camera_from_world` of the next frame from the last two.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct MotionModel {
     last: Option<Isometry3<f64>>,
+    last_timestamp: Option<f64>,
     /// `current_from_previous` of the last tracked step.
     velocity: Option<Isometry3<f64>>,
+    /// Time the velocity's step took, seconds.
+    velocity_interval_s: Option<f64>,
 }
 
+/// Frame intervals outside this range (seconds) do not give an angular rate: equal or
+/// reversed timestamps, or a gap after which the last motion means little.
+const RATE_INTERVAL_S: std::ops::RangeInclusive<f64> = 1e-4..=1.0;
+
 impl MotionModel {
-    /// Records the pose (`camera_from_world`) of the frame just processed. When the
-    /// frame was not tracked, `tracked = false` keeps the velocity but forgets nothing
-    /// else, so that a short outage continues on the same motion.
-    pub fn update(&mut self, camera_from_world: &Isometry3<f64>, tracked: bool) {
+    /// Records the pose (`camera_from_world`) of the frame just processed, taken at
+    /// `timestamp` seconds. When the frame was not tracked, `tracked = false` keeps the
+    /// velocity but forgets nothing else, so that a short outage continues on the same
+    /// motion.
+    pub fn update(&mut self, camera_from_world: &Isometry3<f64>, timestamp: f64, tracked: bool) {
         // Renormalised at every step: `inverse` conjugates the quaternion, which is exact
         // only for unit ones, so a rounding error in the norm would otherwise compound
         // from frame to frame through the velocity (roughly x2.4 per frame).
@@ -24,8 +33,19 @@ impl MotionModel {
             let mut velocity = current * last.inverse();
             velocity.rotation.renormalize();
             self.velocity = Some(velocity);
+            self.velocity_interval_s = self.last_timestamp.map(|t| timestamp - t);
         }
         self.last = Some(current);
+        self.last_timestamp = Some(timestamp);
+    }
+
+    /// The camera's angular velocity, rad/s, as a rotation vector in the current camera
+    /// frame: the velocity's rotation over the time its step took.
+    pub fn angular_velocity(&self) -> Option<Vector3<f64>> {
+        let interval = self
+            .velocity_interval_s
+            .filter(|dt| RATE_INTERVAL_S.contains(dt))?;
+        Some(self.velocity?.rotation.scaled_axis() / interval)
     }
 
     /// Replaces the last pose by a refined estimate of the same frame; the velocity
@@ -56,6 +76,7 @@ impl MotionModel {
     /// Forgets the velocity (after a relocalisation the last motion means nothing).
     pub fn reset_velocity(&mut self) {
         self.velocity = None;
+        self.velocity_interval_s = None;
     }
 }
 
@@ -72,13 +93,33 @@ mod tests {
         );
         let mut m = MotionModel::default();
         let mut pose = Isometry3::identity();
-        m.update(&pose, true);
+        m.update(&pose, 0.0, true);
         pose = step * pose;
-        m.update(&pose, true);
+        m.update(&pose, 0.0, true);
         let predicted = m.predict().unwrap();
         let truth = step * pose;
         assert!((predicted.translation.vector - truth.translation.vector).norm() < 1e-12);
         assert!(predicted.rotation.angle_to(&truth.rotation) < 1e-12);
+    }
+
+    #[test]
+    fn angular_velocity_is_the_step_rotation_over_its_interval() {
+        let step = Isometry3::from_parts(
+            Translation3::new(0.01, 0.0, 0.0),
+            UnitQuaternion::from_euler_angles(0.0, 0.01, 0.0),
+        );
+        let mut m = MotionModel::default();
+        m.update(&Isometry3::identity(), 10.0, true);
+        assert!(m.angular_velocity().is_none());
+        m.update(&step, 10.04, true);
+        let w = m.angular_velocity().expect("two frames 40 ms apart");
+        assert!(
+            (w - nalgebra::Vector3::new(0.0, 0.25, 0.0)).norm() < 1e-9,
+            "{w}"
+        );
+        // Equal timestamps say nothing about the rate.
+        m.update(&(step * step), 10.04, true);
+        assert!(m.angular_velocity().is_none());
     }
 
     #[test]
@@ -93,7 +134,7 @@ mod tests {
             // Each tracked pose is 1e-12 off unit norm, as rounding leaves them.
             pose.rotation =
                 UnitQuaternion::new_unchecked(pose.rotation.into_inner() * (1.0 + 1e-12));
-            m.update(&pose, true);
+            m.update(&pose, 0.0, true);
             let predicted = m.predict().unwrap();
             assert!((predicted.rotation.into_inner().norm() - 1.0).abs() < 1e-9);
             pose = step * pose;

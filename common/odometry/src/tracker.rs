@@ -11,12 +11,14 @@ use crate::matching::{
 };
 use crate::motion::MotionModel;
 use crate::pose_solver::{Inliers, PoseSolver};
+use crate::ransac::{Correspondence, RigidRansac};
+use crate::rolling_shutter;
 use crate::status::TrackingStatus;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
 use gfs_lines::grid::{GridConfig, LineGrid};
 use gfs_points::KeyPointGrid;
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Vector2};
 
 /// The result of tracking one frame.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -43,6 +45,10 @@ const RETRY_WIDER_BELOW: usize = 20;
 /// `TH_LOW` = 50 with a 0.7 ratio for bag-of-words matching).
 const REFERENCE_MAX_DISTANCE: u32 = 64;
 const REFERENCE_RATIO: f32 = 0.75;
+/// Search radius of the wide fallback, pixels at level 0.
+const WIDE_RADIUS_PX: f64 = 50.0;
+/// RANSAC hypotheses of the wide fallback.
+const WIDE_RANSAC_ITERATIONS: usize = 100;
 
 /// Tracks frames against a [`Map`] it does not own.
 pub struct Tracker {
@@ -61,6 +67,9 @@ pub struct Tracker {
     local_lines: Vec<MapLineId>,
     local_keyframes: Vec<KeyFrameId>,
     descriptor_matches: Vec<Option<usize>>,
+    ransac: RigidRansac,
+    correspondences: Vec<Correspondence>,
+    correspondence_keypoints: Vec<(usize, MapPointId)>,
 }
 
 impl Tracker {
@@ -86,6 +95,9 @@ impl Tracker {
             local_lines: Vec::new(),
             local_keyframes: Vec::new(),
             descriptor_matches: Vec::new(),
+            ransac: RigidRansac::default(),
+            correspondences: Vec::new(),
+            correspondence_keypoints: Vec::new(),
             config,
             camera,
         }
@@ -123,8 +135,11 @@ impl Tracker {
 
     /// Records the final state of a frame (after keyframe decisions) as the last frame.
     pub fn finish_frame(&mut self, frame: TrackedFrame) {
-        self.motion
-            .update(&frame.camera_from_world, frame.status.is_tracked());
+        self.motion.update(
+            &frame.camera_from_world,
+            frame.features.timestamp,
+            frame.status.is_tracked(),
+        );
         if frame.status == TrackingStatus::Relocalised {
             self.motion.reset_velocity();
         }
@@ -158,8 +173,13 @@ impl Tracker {
 
     /// Tracks `features` against `map`. Never fails: an untracked frame gets the
     /// predicted pose and [`TrackingStatus::Predicted`].
-    pub fn track(&mut self, map: &mut Map, features: FrameFeatures) -> TrackedFrame {
+    pub fn track(&mut self, map: &mut Map, mut features: FrameFeatures) -> TrackedFrame {
         let predicted = self.motion.predict().unwrap_or_else(Isometry3::identity);
+        if self.config.readout_s > 0.0
+            && let Some(rate) = self.motion.angular_velocity()
+        {
+            rolling_shutter::compensate(&mut features, &self.camera, &rate, self.config.readout_s);
+        }
         let mut frame = TrackedFrame {
             point_ids: vec![None; features.keypoints.len()],
             line_ids: vec![None; features.lines.len()],
@@ -176,7 +196,11 @@ impl Tracker {
                 frame.features.lines.iter().map(|l| &l.segment),
             );
         }
-        let mut ok = self.track_last_frame(map, &mut frame);
+        let mut ok = self.motion.velocity().is_some() && self.track_last_frame(map, &mut frame);
+        if !ok {
+            frame.camera_from_world = predicted;
+            ok = self.track_wide(map, &mut frame);
+        }
         if !ok {
             ok = self.track_reference_keyframe(map, &mut frame);
         }
@@ -198,8 +222,90 @@ impl Tracker {
         frame
     }
 
-    /// Matches the map landmarks of the last frame by projection and optimises.
+    /// Matches the map landmarks of the last frame by projection from the motion
+    /// model's prediction and optimises.
     fn track_last_frame(&mut self, map: &mut Map, frame: &mut TrackedFrame) -> bool {
+        if !self.collect_last_frame_landmarks(map) {
+            return false;
+        }
+        let pose = frame.camera_from_world;
+        let radius = self.config.points.radius_last_frame;
+        let mut matched = self.search_points(map, &pose, frame, radius, false, false);
+        if matched < RETRY_WIDER_BELOW {
+            frame.point_ids.iter_mut().for_each(|m| *m = None);
+            matched = self.search_points(map, &pose, frame, 2.0 * radius, false, false);
+        }
+        matched += self.search_lines(map, &pose, frame, false);
+        if matched < self.config.min_inliers / 2 {
+            return false;
+        }
+        self.optimise(map, frame) >= self.config.min_inliers / 2
+    }
+
+    /// The fallback when there is no motion to predict from (second frame, after a
+    /// relocalisation) or the prediction failed: the last frame's point landmarks are
+    /// searched in a wide window around the predicted pose, RANSAC over the matches
+    /// with depth finds the pose and the consistent matches, and the pose is optimised
+    /// from there. A window of `WIDE_RADIUS_PX` covers a rotation of about 5 degrees
+    /// between two frames; the ratio test and RANSAC sort out the ambiguous matches a
+    /// window that wide lets in.
+    fn track_wide(&mut self, map: &mut Map, frame: &mut TrackedFrame) -> bool {
+        if !self.collect_last_frame_landmarks(map) {
+            return false;
+        }
+        frame.point_ids.iter_mut().for_each(|m| *m = None);
+        frame.line_ids.iter_mut().for_each(|m| *m = None);
+        let pose = frame.camera_from_world;
+        self.search_points(map, &pose, frame, WIDE_RADIUS_PX, false, false);
+        self.correspondences.clear();
+        self.correspondence_keypoints.clear();
+        for (i, id) in frame.point_ids.iter().enumerate() {
+            let (Some(id), Some(kp)) = (id, frame.features.keypoints.get(i)) else {
+                continue;
+            };
+            let Some(point) = map.point(*id) else {
+                continue;
+            };
+            if kp.depth <= 0.0 {
+                continue;
+            }
+            let (u, v) = (f64::from(kp.u), f64::from(kp.v));
+            self.correspondences.push(Correspondence {
+                uv: Vector2::new(u, v),
+                in_camera: self.camera.back_project(u, v, f64::from(kp.depth)),
+                in_world: point.position,
+            });
+            self.correspondence_keypoints.push((i, *id));
+        }
+        let seed = frame.features.id.0;
+        let Some((camera_from_world, inliers)) = self.ransac.solve(
+            &self.correspondences,
+            &self.camera,
+            WIDE_RANSAC_ITERATIONS,
+            seed,
+        ) else {
+            return false;
+        };
+        if inliers < self.config.min_inliers / 2 {
+            return false;
+        }
+        frame.point_ids.iter_mut().for_each(|m| *m = None);
+        for (&(i, id), inlier) in self
+            .correspondence_keypoints
+            .iter()
+            .zip(&self.ransac.inliers)
+        {
+            if *inlier {
+                frame.point_ids[i] = Some(id);
+            }
+        }
+        frame.camera_from_world = camera_from_world;
+        self.optimise(map, frame) >= self.config.min_inliers / 2
+    }
+
+    /// Fills the point candidates and `local_lines` with the last frame's landmarks;
+    /// false without a last frame.
+    fn collect_last_frame_landmarks(&mut self, map: &Map) -> bool {
         let Some(last) = &self.last else { return false };
         // When the last frame became the reference keyframe, its landmarks are the
         // keyframe's: the tracked ones (after fusion) and the ones created from its
@@ -223,18 +329,7 @@ impl Tracker {
         }
         self.local_lines.clear();
         self.local_lines.extend(line_ids.iter().flatten());
-        let pose = frame.camera_from_world;
-        let radius = self.config.points.radius_last_frame;
-        let mut matched = self.search_points(map, &pose, frame, radius, false, false);
-        if matched < RETRY_WIDER_BELOW {
-            frame.point_ids.iter_mut().for_each(|m| *m = None);
-            matched = self.search_points(map, &pose, frame, 2.0 * radius, false, false);
-        }
-        matched += self.search_lines(map, &pose, frame, false);
-        if matched < self.config.min_inliers / 2 {
-            return false;
-        }
-        self.optimise(map, frame) >= self.config.min_inliers / 2
+        true
     }
 
     /// Matches the reference keyframe's landmarks by descriptor alone and optimises from

@@ -195,7 +195,10 @@ impl Config {
     /// The odometry's part of the config.
     pub fn odometry(&self) -> gfs_odometry::OdometryConfig {
         gfs_odometry::OdometryConfig {
-            tracking: self.tracking.clone(),
+            tracking: gfs_odometry::TrackingConfig {
+                readout_s: self.camera.readout_s,
+                ..self.tracking.clone()
+            },
             keyframes: self.keyframes.clone(),
             mapping: self.mapping.clone(),
         }
