@@ -128,8 +128,12 @@ impl Mapper {
     }
 
     /// New map points for unmatched keypoints with depth: all the close ones, and at
-    /// least the `min_new_points` closest (ORB-SLAM2 RGB-D `CreateNewKeyFrame`).
+    /// least the `min_new_points` closest (ORB-SLAM2 RGB-D `CreateNewKeyFrame`); the
+    /// first keyframe of a map gets one for every keypoint with depth (ORB-SLAM2
+    /// `StereoInitialization`), or a map started in a far scene has too few points to
+    /// track the next frames.
     fn create_points(&mut self, map: &mut Map, kf: KeyFrameId) {
+        let first = map.keyframe_count() == 1;
         let Some(keyframe) = map.keyframe(kf) else {
             return;
         };
@@ -146,7 +150,7 @@ impl Mapper {
         let centre = world_from_camera.translation.vector;
         let mut new_points = Vec::new();
         for (n, (depth, i)) in by_depth.into_iter().enumerate() {
-            if depth > self.close_depth_m && n >= self.config.min_new_points {
+            if !first && depth > self.close_depth_m && n >= self.config.min_new_points {
                 break;
             }
             let kp = &keyframe.features.keypoints[i];

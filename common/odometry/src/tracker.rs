@@ -196,10 +196,18 @@ impl Tracker {
                 frame.features.lines.iter().map(|l| &l.segment),
             );
         }
-        let mut ok = self.motion.velocity().is_some() && self.track_last_frame(map, &mut frame);
+        // Without a velocity the prediction is the last pose: the wide search comes
+        // first, and the narrow one only catches a slow start that the wide window's
+        // ratio test found too ambiguous.
+        let moving = self.motion.velocity().is_some();
+        let mut ok = moving && self.track_last_frame(map, &mut frame);
         if !ok {
-            frame.camera_from_world = predicted;
+            restart(&mut frame, &predicted);
             ok = self.track_wide(map, &mut frame);
+        }
+        if !ok && !moving {
+            restart(&mut frame, &predicted);
+            ok = self.track_last_frame(map, &mut frame);
         }
         if !ok {
             ok = self.track_reference_keyframe(map, &mut frame);
@@ -253,8 +261,6 @@ impl Tracker {
         if !self.collect_last_frame_landmarks(map) {
             return false;
         }
-        frame.point_ids.iter_mut().for_each(|m| *m = None);
-        frame.line_ids.iter_mut().for_each(|m| *m = None);
         let pose = frame.camera_from_world;
         self.search_points(map, &pose, frame, WIDE_RADIUS_PX, false, false);
         self.correspondences.clear();
@@ -566,4 +572,11 @@ impl Tracker {
         );
         frame.inliers.total()
     }
+}
+
+/// Puts `frame` back to its predicted pose with no matches, for the next tracking try.
+fn restart(frame: &mut TrackedFrame, predicted: &Isometry3<f64>) {
+    frame.camera_from_world = *predicted;
+    frame.point_ids.iter_mut().for_each(|m| *m = None);
+    frame.line_ids.iter_mut().for_each(|m| *m = None);
 }
