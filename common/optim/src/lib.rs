@@ -20,9 +20,9 @@
 //!
 //! Conventions (see `gfs_core::se3`): optimisers estimate `camera_from_world` and
 //! perturb it on the left, `T ⊕ delta = exp(delta) T`, `delta = [rho; phi]`; pixels
-//! are undistorted; a line is its two world endpoints. Points with a measured depth use
-//! ORB-SLAM2's RGB-D error (a virtual right coordinate `u - bf / depth`), which fixes
-//! depth and scale; without depth the 2D error is used.
+//! are undistorted; a line is its two world endpoints. Points with a measured depth add
+//! a virtual disparity `bf / depth` to the 2D error, which fixes depth and scale; the
+//! local BA weighs it by the sensor's inverse-depth sigma.
 //!
 //! The error terms live in [`residuals`], one per file, each with analytic Jacobians
 //! checked against numeric differences. The local BA solves each LM step exactly by

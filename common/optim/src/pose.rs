@@ -92,7 +92,7 @@ pub struct PoseResult {
     pub num_point_inliers: usize,
     /// Number of `true` in `line_inliers`.
     pub num_line_inliers: usize,
-    /// RMS of the inliers' residual components (point u / v / u_r errors, line
+    /// RMS of the inliers' residual components (point u / v / disparity errors, line
     /// endpoint distances), pixels, unweighted; 0 without inliers.
     pub rms_error_px: f64,
     /// LM iterations run over all rounds.
@@ -220,7 +220,7 @@ impl PoseProblem<'_> {
         obs: &PointObservation,
     ) -> Option<(f64, bool)> {
         if obs.depth > 0.0 {
-            let r = StereoPointReprojection::from_depth(obs.uv, obs.depth, self.bf);
+            let r = StereoPointReprojection::from_depth(obs.uv, obs.depth, self.bf, 1.0);
             Some((
                 r.error(self.camera, pose, &obs.point_in_world)?
                     .norm_squared(),
@@ -318,7 +318,7 @@ impl PoseProblem<'_> {
         {
             let huber = robust.then_some(self.point_huber(obs.depth > 0.0));
             if obs.depth > 0.0 {
-                let r = StereoPointReprojection::from_depth(obs.uv, obs.depth, self.bf);
+                let r = StereoPointReprojection::from_depth(obs.uv, obs.depth, self.bf, 1.0);
                 if let Some(l) = r.linearize(camera, pose, &obs.point_in_world) {
                     n.add(&l.d_pose, &l.error, obs.inv_sigma2, huber);
                 }

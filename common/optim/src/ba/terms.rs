@@ -4,7 +4,7 @@
 
 use super::config::BaConfig;
 use super::normal::Linearization;
-use super::problem::BaProblem;
+use super::problem::{BaPointObservation, BaProblem};
 use crate::residuals::{
     LineReprojection, ManhattanAxis, ParallelLines, PerpendicularLines, PointReprojection,
     StereoPointReprojection,
@@ -121,15 +121,19 @@ impl<'a> Terms<'a> {
         let o = &self.problem.point_observations[k];
         let (camera, pose, point) = (&self.problem.camera, &v.poses[o.pose], &v.points[o.point]);
         let e2 = if o.depth > 0.0 {
-            StereoPointReprojection::from_depth(o.uv, o.depth, self.config.bf)
-                .error(camera, pose, point)?
-                .norm_squared()
+            self.stereo(o).error(camera, pose, point)?.norm_squared()
         } else {
             PointReprojection { uv: o.uv }
                 .error(camera, pose, point)?
                 .norm_squared()
         };
         Some(o.inv_sigma2 * e2)
+    }
+
+    fn stereo(&self, o: &BaPointObservation) -> StereoPointReprojection {
+        let (bf, sigma) = (self.config.bf, self.config.inverse_depth_sigma);
+        let scale = StereoPointReprojection::disparity_scale(o.inv_sigma2, bf, sigma);
+        StereoPointReprojection::from_depth(o.uv, o.depth, bf, scale)
     }
 
     /// Threshold and kernel of point observation `k` (with or without depth).
@@ -265,7 +269,7 @@ impl<'a> Terms<'a> {
             }
             let (pose, point) = (&v.poses[o.pose], &v.points[o.point]);
             if o.depth > 0.0 {
-                let r = StereoPointReprojection::from_depth(o.uv, o.depth, self.config.bf);
+                let r = self.stereo(o);
                 if let Some(l) = r.linearize(camera, pose, point) {
                     self.add_point(lin, k, &l.d_pose, &l.d_point, &l.error);
                 }
