@@ -1,9 +1,7 @@
 //! End-to-end accuracy of the in-process odometry on synthetic sequences with exact
 //! ground truth: the front end extracts points, lines and planes from the rendered
 //! frames, the odometry tracks them, and the ATE (SE(3)-aligned, as `gfsvo eval`) is
-//! asserted, with the number of untracked frames. The scenarios the odometry does not
-//! meet yet are `#[ignore]`d with the figure they reach; `cargo test -- --ignored` runs
-//! them.
+//! asserted, with the number of untracked frames.
 
 use gfs_dataset::{EVO_MAX_DIFF_S, Trajectory, evaluate};
 use gfs_lines::extractor::LineConfig;
@@ -141,7 +139,6 @@ fn mostly_rotation_is_tracked_within_a_centimetre() {
 }
 
 #[test]
-#[ignore = "issue 6 open: 1.10 cm ATE on 120 frames (target 1 cm); 0.86 cm with [mapping] local_ba = false, 1.41 cm with lines off"]
 fn low_texture_room_stays_within_a_centimetre() {
     let r = run(
         SceneKind::LowTexture,

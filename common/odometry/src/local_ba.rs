@@ -11,10 +11,14 @@ use crate::matching::ScalePyramid;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
 use gfs_optim::{
-    BaLineObservation, BaManhattan, BaPointObservation, BaPose, BaProblem, BaResult,
+    BaLineObservation, BaLinePrior, BaManhattan, BaPointObservation, BaPose, BaProblem, BaResult,
     LocalBundleAdjuster as Solver,
 };
 use nalgebra::{Point3, Vector2, Vector3};
+
+/// Smallest sigma of a line's depth prior, metres: close up, the line fit's own error
+/// (a few pixels of a segment's support) outweighs the depth noise.
+const MIN_LINE_PRIOR_SIGMA_M: f64 = 0.01;
 
 /// Reusable state of the local BA.
 #[derive(Default)]
@@ -202,6 +206,15 @@ impl LocalBundleAdjuster {
                     line: k,
                     coeffs: Vector3::new(f64::from(a), f64::from(b), f64::from(c)),
                     inv_sigma2: 1.0,
+                });
+            }
+            let sigma =
+                |z: f64| (config.ba.inverse_depth_sigma * z * z).max(MIN_LINE_PRIOR_SIGMA_M);
+            if config.ba.inverse_depth_sigma > 0.0 {
+                problem.line_priors.push(BaLinePrior {
+                    line: k,
+                    endpoints: [l.measured[0].coords, l.measured[1].coords],
+                    information: l.measured_depth.map(|z| sigma(z).powi(-2)),
                 });
             }
             if let Some(direction) = l.axis.and_then(|a| manhattan.axis(a)) {

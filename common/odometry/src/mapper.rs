@@ -192,17 +192,20 @@ impl Mapper {
             if !line3.is_valid() || keyframe.line_ids[j].is_some() {
                 continue;
             }
+            let depth = [f64::from(line3.start[2]), f64::from(line3.end[2])];
             let start = world_from_camera * Point3::from(line3.start.map(f64::from));
             let end = world_from_camera * Point3::from(line3.end.map(f64::from));
             let descriptor = keyframe.features.line_descriptors[j];
-            new_lines.push((j, start, end, descriptor));
+            new_lines.push((j, start, end, depth, descriptor));
         }
-        for (j, start, end, descriptor) in new_lines {
+        for (j, start, end, measured_depth, descriptor) in new_lines {
             let axis =
                 manhattan.axis_of(&(end - start), self.config.manhattan_angle_deg.to_radians());
             let line = MapLine {
                 start,
                 end,
+                measured: [start, end],
+                measured_depth,
                 descriptor,
                 observations: Vec::new(),
                 axis,

@@ -60,7 +60,7 @@ pub mod residuals;
 pub mod robust;
 
 pub use ba::{
-    BaConfig, BaError, BaFlags, BaLineObservation, BaManhattan, BaPointObservation, BaPose,
-    BaProblem, BaResult, LocalBundleAdjuster, ONE_DEGREE_INFORMATION,
+    BaConfig, BaError, BaFlags, BaLineObservation, BaLinePrior, BaManhattan, BaPointObservation,
+    BaPose, BaProblem, BaResult, LocalBundleAdjuster, ONE_DEGREE_INFORMATION,
 };
 pub use pose::{LineObservation, PointObservation, PoseOptimizerConfig, PoseResult, optimize_pose};

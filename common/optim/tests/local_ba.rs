@@ -236,3 +236,74 @@ fn edge_cases_do_not_fail() {
         nalgebra::Vector3::new(0.0, 0.0, 2.0)
     );
 }
+
+#[test]
+fn a_depth_prior_holds_lines_where_depth_measured_them() {
+    let mut with = BaScene::new(&spec(), &mut Rng::new(11));
+    let mut without = BaScene::new(&spec(), &mut Rng::new(11));
+    // Every line starts 15 % deeper along the rays of the first keyframe, the error
+    // that the image of a nearby keyframe hardly sees.
+    for scene in [&mut with, &mut without] {
+        let first = scene.true_poses[0];
+        for (line, truth) in scene.problem.lines.iter_mut().zip(&scene.true_lines) {
+            for (end, true_end) in line.iter_mut().zip(truth) {
+                let in_camera = first * nalgebra::Point3::from(*true_end);
+                *end = (first.inverse() * nalgebra::Point3::from(in_camera.coords * 1.15)).coords;
+            }
+        }
+    }
+    let first = with.true_poses[0];
+    for (k, truth) in with.true_lines.iter().enumerate() {
+        let depth = truth.map(|e| (first * nalgebra::Point3::from(e)).z);
+        with.problem.line_priors.push(gfs_optim::BaLinePrior {
+            line: k,
+            endpoints: *truth,
+            // 2 cm sigma at every depth.
+            information: depth.map(|_| 1.0 / (0.02 * 0.02)),
+        });
+    }
+    run(&mut with, &BaConfig::default());
+    run(&mut without, &BaConfig::default());
+    let mean_error = |scene: &BaScene| {
+        let sum: f64 = scene
+            .problem
+            .lines
+            .iter()
+            .zip(&scene.true_lines)
+            .map(|(l, t)| ((l[0] - t[0]).norm() + (l[1] - t[1]).norm()) / 2.0)
+            .sum();
+        sum / scene.true_lines.len() as f64
+    };
+    let (e_with, e_without) = (mean_error(&with), mean_error(&without));
+    println!("mean endpoint error: {e_with:.4} m with the prior, {e_without:.4} m without");
+    assert!(e_with < 0.01, "with the prior: {e_with} m");
+    assert!(
+        e_with < 0.5 * e_without,
+        "{e_with} m with, {e_without} m without"
+    );
+    // An out-of-range or non-finite prior is refused.
+    let mut bad = BaScene::new(&spec(), &mut Rng::new(12));
+    let n = bad.problem.lines.len();
+    bad.problem.line_priors.push(gfs_optim::BaLinePrior {
+        line: n,
+        endpoints: bad.true_lines[0],
+        information: [1.0, 1.0],
+    });
+    let error = LocalBundleAdjuster::new()
+        .optimize(
+            &mut bad.problem,
+            &BaConfig::default(),
+            &mut BaResult::default(),
+        )
+        .unwrap_err();
+    assert!(
+        matches!(
+            error,
+            BaError::IndexOutOfRange {
+                list: "line_priors",
+                ..
+            }
+        ),
+        "{error}"
+    );
+}

@@ -11,6 +11,11 @@ pub struct MapLine {
     pub start: Point3<f64>,
     /// Second endpoint in the world, metres.
     pub end: Point3<f64>,
+    /// The endpoints as the creating keyframe's depth measured them, world frame; the
+    /// local BA holds the line near them (see `gfs_optim::BaLinePrior`).
+    pub measured: [Point3<f64>; 2],
+    /// Depth of each measured endpoint in the creating keyframe, metres.
+    pub measured_depth: [f64; 2],
     /// Representative LBD descriptor.
     pub descriptor: Descriptor,
     /// Keyframes that see it, with the line index in each.

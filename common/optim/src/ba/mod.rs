@@ -8,6 +8,8 @@ mod solver;
 mod terms;
 
 pub use config::{BaConfig, ONE_DEGREE_INFORMATION};
-pub use problem::{BaError, BaLineObservation, BaManhattan, BaPointObservation, BaPose, BaProblem};
+pub use problem::{
+    BaError, BaLineObservation, BaLinePrior, BaManhattan, BaPointObservation, BaPose, BaProblem,
+};
 pub use solver::{BaResult, LocalBundleAdjuster};
 pub use terms::BaFlags;

@@ -52,6 +52,20 @@ pub struct BaManhattan {
     pub axis: Vector3<f64>,
 }
 
+/// Where depth measured a map line: its endpoints are held near there with the depth
+/// noise as sigma. Its 2D observations leave a line free to slide along the viewing
+/// rays when the keyframes that see it are close together, and only depth, not the
+/// image, says where it is along them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaLinePrior {
+    /// Index into [`BaProblem::lines`].
+    pub line: usize,
+    /// The measured endpoints `[S, E]`, world frame, metres.
+    pub endpoints: [Vector3<f64>; 2],
+    /// Information of each endpoint's position, 1/m^2 (isotropic).
+    pub information: [f64; 2],
+}
+
 /// The variables and terms of one local BA. Points and lines are updated in place.
 #[derive(Clone, Debug)]
 pub struct BaProblem {
@@ -74,6 +88,8 @@ pub struct BaProblem {
     pub perpendicular: Vec<(usize, usize)>,
     /// Line <-> Manhattan axis associations (eq. 14).
     pub manhattan: Vec<BaManhattan>,
+    /// Depth priors of lines (at most one per line).
+    pub line_priors: Vec<BaLinePrior>,
 }
 
 impl BaProblem {
@@ -89,6 +105,7 @@ impl BaProblem {
             parallel: Vec::new(),
             perpendicular: Vec::new(),
             manhattan: Vec::new(),
+            line_priors: Vec::new(),
         }
     }
 
@@ -160,6 +177,16 @@ impl BaProblem {
         for (i, m) in self.manhattan.iter().enumerate() {
             check("manhattan", i, "line", m.line, nl)?;
             finite("manhattan", i, m.axis.iter().all(|v| v.is_finite()))?;
+        }
+        for (i, prior) in self.line_priors.iter().enumerate() {
+            check("line_priors", i, "line", prior.line, nl)?;
+            let ok = prior
+                .endpoints
+                .iter()
+                .flat_map(|e| e.iter())
+                .all(|v| v.is_finite())
+                && prior.information.iter().all(|w| w.is_finite() && *w >= 0.0);
+            finite("line_priors", i, ok)?;
         }
         if np > 0 && self.poses.iter().all(|p| !p.fixed) {
             return Err(BaError::NoFixedPose { poses: np });

@@ -179,6 +179,18 @@ impl<'a> Terms<'a> {
         Some(self.config.manhattan_weight * e.norm_squared())
     }
 
+    /// Cost of the line depth priors at `v` (plain least squares: a prior is never an
+    /// outlier).
+    fn line_prior_cost(&self, v: &Values) -> f64 {
+        let mut cost = 0.0;
+        for prior in &self.problem.line_priors {
+            for (k, measured) in prior.endpoints.iter().enumerate() {
+                cost += prior.information[k] * (v.lines[prior.line][k] - measured).norm_squared();
+            }
+        }
+        cost
+    }
+
     /// Flags every term by its chi-square at `v`: invalid (behind the camera,
     /// degenerate line, non-positive information) or above its threshold = outlier.
     pub(crate) fn classify(&self, v: &Values, flags: &mut BaFlags) {
@@ -255,6 +267,7 @@ impl<'a> Terms<'a> {
         for k in (0..flags.manhattan.len()).filter(|&k| self.manhattan_active(flags, k)) {
             ok &= add(self.manhattan_chi2(v, k), &self.manhattan_huber);
         }
+        cost += self.line_prior_cost(v);
         (ok && cost.is_finite()).then_some(cost)
     }
 
@@ -276,6 +289,18 @@ impl<'a> Terms<'a> {
             } else if let Some(l) = (PointReprojection { uv: o.uv }).linearize(camera, pose, point)
             {
                 self.add_point(lin, k, &l.d_pose, &l.d_point, &l.error);
+            }
+        }
+        for prior in &p.line_priors {
+            let line = &v.lines[prior.line];
+            for (k, measured) in prior.endpoints.iter().enumerate() {
+                let w = prior.information[k];
+                let e = line[k] - measured;
+                lin.cost += w * e.norm_squared();
+                for r in 0..3 {
+                    lin.h_line[prior.line][(3 * k + r, 3 * k + r)] += w;
+                    lin.g_line[prior.line][3 * k + r] += w * e[r];
+                }
             }
         }
         for (k, o) in p.line_observations.iter().enumerate() {
