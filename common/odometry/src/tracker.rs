@@ -210,6 +210,7 @@ impl Tracker {
             ok = self.track_last_frame(map, &mut frame);
         }
         if !ok {
+            restart(&mut frame, &predicted);
             ok = self.track_reference_keyframe(map, &mut frame);
         }
         if ok || self.last.is_none() {
