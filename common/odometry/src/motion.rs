@@ -1,5 +1,6 @@
 //! Constant-velocity motion model: the pose prediction every tracking step starts from.
 
+use gfs_core::se3;
 use nalgebra::{Isometry3, Vector3};
 
 /// Predicts `camera_from_world` of the next frame from the last two.
@@ -17,6 +18,8 @@ pub struct MotionModel {
 /// Frame intervals outside this range (seconds) do not give an angular rate: equal or
 /// reversed timestamps, or a gap after which the last motion means little.
 const RATE_INTERVAL_S: std::ops::RangeInclusive<f64> = 1e-4..=1.0;
+/// Most velocity steps a prediction extrapolates over.
+const MAX_STEPS: f64 = 4.0;
 
 impl MotionModel {
     /// Records the pose (`camera_from_world`) of the frame just processed, taken at
@@ -64,6 +67,26 @@ impl MotionModel {
             Some(v) => v * last,
             None => last,
         };
+        predicted.rotation.renormalize();
+        Some(predicted)
+    }
+
+    /// The predicted `camera_from_world` of a frame taken at `timestamp`: the velocity
+    /// is taken per second, so a frame that comes late (the pipeline dropped the ones
+    /// before it, or the camera skipped) is predicted that much further. Without
+    /// timestamps to go by, as [`Self::predict`].
+    pub fn predict_at(&self, timestamp: f64) -> Option<Isometry3<f64>> {
+        let last = self.last?;
+        let (Some(velocity), Some(t0), Some(interval)) =
+            (self.velocity, self.last_timestamp, self.velocity_interval_s)
+        else {
+            return self.predict();
+        };
+        if !RATE_INTERVAL_S.contains(&interval) || !RATE_INTERVAL_S.contains(&(timestamp - t0)) {
+            return self.predict();
+        }
+        let steps = ((timestamp - t0) / interval).min(MAX_STEPS);
+        let mut predicted = se3::exp(&(se3::log(&velocity) * steps)) * last;
         predicted.rotation.renormalize();
         Some(predicted)
     }
@@ -120,6 +143,30 @@ mod tests {
         // Equal timestamps say nothing about the rate.
         m.update(&(step * step), 10.04, true);
         assert!(m.angular_velocity().is_none());
+    }
+
+    #[test]
+    fn a_late_frame_is_predicted_further_along_the_same_motion() {
+        let step = Isometry3::from_parts(
+            Translation3::new(0.01, 0.0, 0.02),
+            UnitQuaternion::from_euler_angles(0.0, 0.02, 0.0),
+        );
+        let mut m = MotionModel::default();
+        m.update(&Isometry3::identity(), 1.0, true);
+        m.update(&step, 1.04, true);
+        // The next frame on time: one step; two frames dropped: three steps.
+        let on_time = m.predict_at(1.08).expect("velocity");
+        assert!((on_time.translation.vector - (step * step).translation.vector).norm() < 1e-9);
+        let late = m.predict_at(1.16).expect("velocity");
+        let truth = step * step * step * step;
+        assert!((late.translation.vector - truth.translation.vector).norm() < 1e-9);
+        assert!(late.rotation.angle_to(&truth.rotation) < 1e-9);
+        // A timestamp that goes backwards or jumps by seconds falls back to one step.
+        let fallback = m.predict().expect("velocity");
+        for t in [1.0, 9.0, f64::NAN] {
+            let p = m.predict_at(t).expect("velocity");
+            assert!((p.translation.vector - fallback.translation.vector).norm() < 1e-15);
+        }
     }
 
     #[test]

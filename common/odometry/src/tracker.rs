@@ -174,7 +174,10 @@ impl Tracker {
     /// Tracks `features` against `map`. Never fails: an untracked frame gets the
     /// predicted pose and [`TrackingStatus::Predicted`].
     pub fn track(&mut self, map: &mut Map, mut features: FrameFeatures) -> TrackedFrame {
-        let predicted = self.motion.predict().unwrap_or_else(Isometry3::identity);
+        let predicted = self
+            .motion
+            .predict_at(features.timestamp)
+            .unwrap_or_else(Isometry3::identity);
         if self.config.readout_s > 0.0
             && let Some(rate) = self.motion.angular_velocity()
         {
