@@ -272,6 +272,25 @@ mod tests {
     }
 
     #[test]
+    fn the_rolling_shutter_readout_reaches_the_tracker() {
+        let odometry = |name| {
+            Config::built_in(name)
+                .unwrap()
+                .odometry()
+                .tracking
+                .readout_s
+        };
+        assert_eq!(odometry("tum1"), 0.02);
+        assert_eq!(odometry("tum2"), 0.02);
+        for global in ["tum3", "icl", "7scenes", "synthetic"] {
+            assert_eq!(odometry(global), 0.0, "{global}");
+        }
+        let cam = "[camera]\nfx=5.0\nfy=5.0\ncx=1.0\ncy=1.0\nwidth=4\nheight=4\n";
+        let e = Config::from_toml(&format!("{cam}readout_s = 2.0\n"), "a.toml").unwrap_err();
+        assert!(e.to_string().contains("camera.readout_s"), "{e}");
+    }
+
+    #[test]
     fn the_dataset_name_selects_the_camera() {
         assert_eq!(
             built_in_for(Path::new("/x/tum_fr1_rpy_head300")),
