@@ -5,6 +5,7 @@
 
 use gfs_core::align::rigid_transform;
 use gfs_core::camera::PinholeCamera;
+use gfs_points::KeyPoint;
 use nalgebra::{Isometry3, Point3, Vector2};
 
 /// Reprojection error of an inlier, pixels.
@@ -19,6 +20,22 @@ pub struct Correspondence {
     pub in_camera: Point3<f64>,
     /// The map point, world frame.
     pub in_world: Point3<f64>,
+}
+
+impl Correspondence {
+    /// The pair of keypoint `kp` and a map point at `in_world`; `None` when the
+    /// keypoint has no depth.
+    pub fn new(camera: &PinholeCamera, kp: &KeyPoint, in_world: Point3<f64>) -> Option<Self> {
+        if kp.depth <= 0.0 {
+            return None;
+        }
+        let (u, v) = (f64::from(kp.u), f64::from(kp.v));
+        Some(Self {
+            uv: Vector2::new(u, v),
+            in_camera: camera.back_project(u, v, f64::from(kp.depth)),
+            in_world,
+        })
+    }
 }
 
 /// Reusable buffers of [`RigidRansac::solve`].

@@ -8,7 +8,7 @@ use crate::matching::match_descriptors;
 use crate::ransac::{Correspondence, RigidRansac};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::MapPointId;
-use nalgebra::{Isometry3, Vector2};
+use nalgebra::Isometry3;
 
 /// RANSAC hypotheses tried.
 const ITERATIONS: usize = 200;
@@ -55,19 +55,13 @@ pub fn relocalise(
         let (Some(t), Some(kp)) = (m, frame.keypoints.get(i)) else {
             continue;
         };
-        if kp.depth <= 0.0 {
-            continue;
+        let pair = map
+            .point(ids[*t])
+            .and_then(|p| Correspondence::new(camera, kp, p.position));
+        if let Some(pair) = pair {
+            keypoints.push(i);
+            pairs.push(pair);
         }
-        let Some(point) = map.point(ids[*t]) else {
-            continue;
-        };
-        let (u, v) = (f64::from(kp.u), f64::from(kp.v));
-        keypoints.push(i);
-        pairs.push(Correspondence {
-            uv: Vector2::new(u, v),
-            in_camera: camera.back_project(u, v, f64::from(kp.depth)),
-            in_world: point.position,
-        });
     }
     if pairs.len() < min_inliers.max(3) {
         return None;

@@ -18,7 +18,7 @@ use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
 use gfs_lines::grid::{GridConfig, LineGrid};
 use gfs_points::KeyPointGrid;
-use nalgebra::{Isometry3, Vector2};
+use nalgebra::Isometry3;
 
 /// The result of tracking one frame.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
@@ -273,19 +273,13 @@ impl Tracker {
             let (Some(id), Some(kp)) = (id, frame.features.keypoints.get(i)) else {
                 continue;
             };
-            let Some(point) = map.point(*id) else {
-                continue;
-            };
-            if kp.depth <= 0.0 {
-                continue;
+            let pair = map
+                .point(*id)
+                .and_then(|p| Correspondence::new(&self.camera, kp, p.position));
+            if let Some(pair) = pair {
+                self.correspondences.push(pair);
+                self.correspondence_keypoints.push((i, *id));
             }
-            let (u, v) = (f64::from(kp.u), f64::from(kp.v));
-            self.correspondences.push(Correspondence {
-                uv: Vector2::new(u, v),
-                in_camera: self.camera.back_project(u, v, f64::from(kp.depth)),
-                in_world: point.position,
-            });
-            self.correspondence_keypoints.push((i, *id));
         }
         let seed = frame.features.id.0;
         let Some((camera_from_world, inliers)) = self.ransac.solve(
