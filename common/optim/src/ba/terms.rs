@@ -426,3 +426,55 @@ impl<'a> Terms<'a> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ba::problem::{BaLinePrior, BaPose};
+    use gfs_core::camera::PinholeCamera;
+
+    /// The line prior's blocks are the Gauss-Newton form of its cost: `g` is half the
+    /// cost's gradient and `H` the identity times the information, checked against
+    /// central differences.
+    #[test]
+    fn line_prior_blocks_match_numeric_differences() {
+        let mut problem = BaProblem::new(PinholeCamera::new(500.0, 500.0, 320.0, 240.0, 640, 480));
+        problem.poses.push(BaPose {
+            camera_from_world: Isometry3::identity(),
+            fixed: true,
+        });
+        problem
+            .lines
+            .push([Vector3::new(0.1, -0.2, 2.0), Vector3::new(0.4, 0.3, 2.5)]);
+        problem.line_priors.push(BaLinePrior {
+            line: 0,
+            endpoints: [
+                Vector3::new(0.12, -0.21, 2.1),
+                Vector3::new(0.38, 0.33, 2.4),
+            ],
+            information: [400.0, 100.0],
+        });
+        let config = BaConfig::default();
+        let terms = Terms::new(&problem, &config);
+        let mut values = Values::default();
+        values.copy_from_problem(&problem);
+        let mut flags = BaFlags::default();
+        flags.reset(&problem);
+        let mut lin = Linearization::default();
+        lin.resize(&problem);
+        terms.linearize(&values, &flags, &mut lin);
+        let cost = |v: &Values| terms.cost(v, &flags, true).expect("valid");
+        let h = 1e-6;
+        for k in 0..6 {
+            let (end, axis) = (k / 3, k % 3);
+            let (mut plus, mut minus) = (values.clone(), values.clone());
+            plus.lines[0][end][axis] += h;
+            minus.lines[0][end][axis] -= h;
+            let half_gradient = (cost(&plus) - cost(&minus)) / (4.0 * h);
+            assert!((lin.g_line[0][k] - half_gradient).abs() < 1e-6, "g[{k}]");
+            let information = problem.line_priors[0].information[end];
+            assert!((lin.h_line[0][(k, k)] - information).abs() < 1e-9, "H[{k}]");
+        }
+        assert!((lin.cost - cost(&values)).abs() < 1e-9);
+    }
+}
