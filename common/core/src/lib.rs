@@ -11,6 +11,7 @@
 //!   convention used by every optimiser of the project.
 //! - [`align`]: least-squares rigid alignment of 3D point pairs (Kabsch).
 //! - [`ids`]: typed ids, so that a frame id never indexes a map point.
+//! - [`rng`]: a deterministic PRNG (SplitMix64) for sampling and fixtures.
 //!
 //! Conventions (see DESIGN.md): poses are `T_wc` (`world_from_camera`,
 //! `nalgebra::Isometry3<f64>`), camera optical frame x right, y down, z forward;
@@ -32,6 +33,7 @@ pub mod align;
 pub mod camera;
 pub mod ids;
 mod image;
+pub mod rng;
 pub mod se3;
 
 pub use image::{DepthImage, GrayImage, Image, ImageError, ImageView, RgbImage};

@@ -1,8 +1,8 @@
 //! Assembles the local BA of a new keyframe from the map (paper eq. 10): the covisible
 //! keyframes `K_c` and their points and lines are optimised, the new keyframe and the
-//! other keyframes that see those landmarks (`K_f`) are held fixed; structural pairs (eq. 11-13) and
-//! Manhattan associations (eq. 14) are added for the lines. The result is written back
-//! and outlier observations are unlinked.
+//! other keyframes that see those landmarks (`K_f`) are held fixed; structural pairs
+//! (eq. 11-13), Manhattan associations (eq. 14) and the lines' depth priors are added
+//! for the lines. The result is written back and outlier observations are unlinked.
 
 use crate::config::MappingConfig;
 use crate::manhattan::WorldManhattan;
@@ -187,6 +187,9 @@ impl LocalBundleAdjuster {
                 });
             }
         }
+        // A line's depth prior: the depth noise at each measured endpoint.
+        let prior_sigma =
+            |z: f64| (config.ba.inverse_depth_sigma * z * z).max(MIN_LINE_PRIOR_SIGMA_M);
         for (k, lid) in self.line_ids.iter().enumerate() {
             let Some(l) = map.line(*lid) else { continue };
             for (obs_kf, index) in &l.observations {
@@ -208,13 +211,11 @@ impl LocalBundleAdjuster {
                     inv_sigma2: 1.0,
                 });
             }
-            let sigma =
-                |z: f64| (config.ba.inverse_depth_sigma * z * z).max(MIN_LINE_PRIOR_SIGMA_M);
             if config.ba.inverse_depth_sigma > 0.0 {
                 problem.line_priors.push(BaLinePrior {
                     line: k,
                     endpoints: [l.measured[0].coords, l.measured[1].coords],
-                    information: l.measured_depth.map(|z| sigma(z).powi(-2)),
+                    information: l.measured_depth.map(|z| prior_sigma(z).powi(-2)),
                 });
             }
             if let Some(direction) = l.axis.and_then(|a| manhattan.axis(a)) {

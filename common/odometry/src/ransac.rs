@@ -5,6 +5,7 @@
 
 use gfs_core::align::rigid_transform;
 use gfs_core::camera::PinholeCamera;
+use gfs_core::rng::SplitMix64;
 use gfs_points::KeyPoint;
 use nalgebra::{Isometry3, Point3, Vector2};
 
@@ -63,13 +64,13 @@ impl RigidRansac {
         if pairs.len() < 3 {
             return None;
         }
-        let mut rng = SplitMix64(seed);
+        let mut rng = SplitMix64::new(seed);
         let mut best: Option<(usize, Isometry3<f64>)> = None;
         for _ in 0..iterations {
             self.src.clear();
             self.dst.clear();
             for _ in 0..3 {
-                let k = (rng.next() % pairs.len() as u64) as usize;
+                let k = rng.below(pairs.len() as u64) as usize;
                 self.src.push(pairs[k].in_world);
                 self.dst.push(pairs[k].in_camera);
             }
@@ -116,19 +117,6 @@ fn count_inliers(
     count
 }
 
-/// A tiny deterministic generator for RANSAC sampling (splitmix64).
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -141,9 +129,8 @@ mod tests {
             Translation3::new(0.1, -0.05, 0.2),
             UnitQuaternion::from_euler_angles(0.05, -0.1, 0.2),
         );
-        let mut rng = SplitMix64(3);
-        let mut uniform =
-            |lo: f64, hi: f64| lo + (hi - lo) * (rng.next() >> 11) as f64 / (1u64 << 53) as f64;
+        let mut rng = SplitMix64::new(3);
+        let mut uniform = |lo: f64, hi: f64| rng.range(lo, hi);
         let mut pairs = Vec::new();
         for k in 0..100 {
             let in_camera = Point3::new(uniform(-1.0, 1.0), uniform(-0.8, 0.8), uniform(1.0, 4.0));

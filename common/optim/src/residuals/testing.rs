@@ -4,24 +4,16 @@ use gfs_core::camera::PinholeCamera;
 use gfs_core::se3::exp;
 use nalgebra::{Isometry3, Point3, SMatrix, SVector, Vector3, Vector6};
 
-/// splitmix64: deterministic, dependency-free random numbers for fixtures.
-pub(crate) struct SplitMix64(u64);
+/// Deterministic random numbers for fixtures ([`gfs_core::rng::SplitMix64`]).
+pub(crate) struct SplitMix64(gfs_core::rng::SplitMix64);
 
 impl SplitMix64 {
     pub(crate) fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-
-    pub(crate) fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        Self(gfs_core::rng::SplitMix64::new(seed))
     }
 
     pub(crate) fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        self.0.range(lo, hi)
     }
 
     pub(crate) fn vector3(&mut self, half_range: f64) -> Vector3<f64> {

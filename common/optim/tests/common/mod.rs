@@ -7,24 +7,21 @@ use gfs_core::se3::exp;
 use gfs_optim::{LineObservation, PointObservation};
 use nalgebra::{Isometry3, Point3, Vector2, Vector3, Vector6};
 
-/// splitmix64 plus Box-Muller: deterministic random numbers without dependencies.
-pub struct Rng(u64);
+/// [`gfs_core::rng::SplitMix64`] plus Box-Muller: deterministic random numbers.
+pub struct Rng(gfs_core::rng::SplitMix64);
 
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        Self(gfs_core::rng::SplitMix64::new(seed))
     }
 
     pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        self.0.range(lo, hi)
+    }
+
+    /// Uniform in `0..n`.
+    pub fn below(&mut self, n: usize) -> usize {
+        self.0.below(n as u64) as usize
     }
 
     pub fn gaussian(&mut self) -> f64 {
@@ -209,7 +206,7 @@ impl BaScene {
                 rng.uniform(-1.3, 1.3),
                 rng.uniform(1.5, 5.0),
             );
-            let first = (rng.next_u64() % (n - window + 1) as u64) as usize;
+            let first = rng.below(n - window + 1);
             if tracked(&p, first) >= 2 {
                 true_points.push(p);
                 track_start.push(first);
