@@ -3,6 +3,7 @@
 //! The configs of `configs/` are built into the binary, so that `gfsvo` works from any
 //! folder; `--config FILE` reads any other file with the same tables.
 
+use crate::scheduling::SchedulingConfig;
 use gfs_core::camera::{Camera, CameraConfig};
 use gfs_dataset::DepthConfig;
 use serde::Deserialize;
@@ -59,6 +60,13 @@ pub struct PipelineConfig {
     pub max_restarts: u32,
     /// The window of `max_restarts`, seconds. Default 30.
     pub restart_window_s: u64,
+    /// Realtime: the longest a keyframe's local BA may run, ms; it also stops as soon as
+    /// the next keyframe request arrives, keeping its best iterate (ORB-SLAM2's abort
+    /// flag). Lockstep and inline runs ignore it, so that they stay reproducible.
+    /// Default 40 (README, "Latency").
+    pub realtime_ba_budget_ms: u64,
+    /// `[pipeline.scheduling.<stage>]`: nice level, policy and CPUs of each stage.
+    pub scheduling: SchedulingConfig,
 }
 
 impl Default for PipelineConfig {
@@ -69,6 +77,8 @@ impl Default for PipelineConfig {
             resend_after_ms: 4000,
             max_restarts: 5,
             restart_window_s: 30,
+            realtime_ba_budget_ms: 40,
+            scheduling: SchedulingConfig::default(),
         }
     }
 }
@@ -145,7 +155,14 @@ impl Config {
             .detect
             .validate()
             .map_err(|e| format!("lines.detect.{e}"))?;
-        self.planes.validate().map_err(|e| e.to_string())
+        self.planes.validate().map_err(|e| e.to_string())?;
+        if self.pipeline.realtime_ba_budget_ms == 0 {
+            return Err("pipeline.realtime_ba_budget_ms: must be above 0".to_owned());
+        }
+        self.pipeline
+            .scheduling
+            .validate()
+            .map_err(|e| e.to_string())
     }
 
     /// The config in `path`; else the folder's own `synthetic.toml` (written by

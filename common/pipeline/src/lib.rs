@@ -16,6 +16,7 @@
 #![warn(missing_docs)]
 
 pub mod config;
+pub mod scheduling;
 pub mod service;
 pub mod stages;
 pub mod state;

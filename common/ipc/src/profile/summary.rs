@@ -69,7 +69,7 @@ pub struct ProfileSummary {
     pub frames: usize,
     /// One entry per stage that stamped at least one frame, in pipeline order.
     pub stages: Vec<StageSummary>,
-    /// Source "started" to the latest "finished" of each frame.
+    /// Source "started" to tracker "finished" of each frame: frame published -> pose out.
     pub end_to_end: Quantiles,
 }
 

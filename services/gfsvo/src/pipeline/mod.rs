@@ -101,7 +101,12 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
             .parent()
             .map(Path::to_path_buf)
             .unwrap_or_default();
-        let mut pool = StageProcesses::start(&dir, stage_args(options), policy)?;
+        let mut pool = StageProcesses::start(
+            &dir,
+            stage_args(options),
+            policy,
+            options.settings.config.pipeline.scheduling.clone(),
+        )?;
         write_pids(&options.out, &pool.pids());
         let result = supervise(&run, recorder, options, |run| {
             let restarted = pool.restart_dead(run)?;
