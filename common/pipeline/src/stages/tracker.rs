@@ -4,7 +4,7 @@
 //! in-process odometry does, so both give the same trajectory.
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
-use super::join::{FrameJoin, Joined};
+use super::join::{FrameJoin, Joined, Part};
 use super::mapper::saved_maps;
 use crate::state::StateDir;
 use crate::wire::{WireKeyPoint, WireLine, WireManhattan, WirePose};
@@ -82,7 +82,11 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             ports.poses.update_connections()?;
             ports.keyframes.update_connections()?;
             resend_if_stale(ctx, &ports.keyframes, &mut outstanding)?;
-            ports.manhattan.wait(POLL)?;
+            match join.waiting_for() {
+                Part::Points => ports.points.wait(POLL)?,
+                Part::Lines => ports.lines.wait(POLL)?,
+                Part::Manhattan => ports.manhattan.wait(POLL)?,
+            };
             continue;
         };
         mark_ready(&mut header, Stage::Tracker, 0);
