@@ -49,6 +49,8 @@ enum Command {
     /// Record the poses and stage profile of a pipeline whose stages run as services
     /// (systemd): trajectory.txt, status.txt, profile.json, until SIGINT / SIGTERM.
     Record(cmd::record::RecordArgs),
+    /// Remove what dead runs left in /dev/shm and /tmp/iceoryx2 (never a live run's files).
+    Clean(cmd::clean::CleanArgs),
 }
 
 fn main() -> ExitCode {
@@ -61,6 +63,7 @@ fn main() -> ExitCode {
         Command::Bench(command) => bench::run(command),
         Command::Profile(args) => cmd::profile::run(args),
         Command::Record(args) => cmd::record::run(args),
+        Command::Clean(args) => cmd::clean::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -75,7 +75,12 @@ pub struct PipelineOutcome {
 /// fails; every stage is stopped and the run's shared memory removed first.
 pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
     signals::install();
+    let swept = gfs_ipc::sweep_dead_runs();
+    for (id, files) in &swept.removed {
+        tracing::info!("removed {files} files left by dead run {id}");
+    }
     let run = IpcRun::new(options.run_id.clone())?;
+    let claim = run.claim()?;
     let policy = RestartPolicy::new(
         options.settings.config.pipeline.max_restarts,
         Duration::from_secs(options.settings.config.pipeline.restart_window_s),
@@ -92,8 +97,9 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
             StageThreads::start(options.run_id.clone(), options.settings.clone(), policy)?;
         let result = supervise(&run, recorder, options, |_| pool.restart_dead());
         pool.stop();
+        drop(node);
         let totals = Stage::ALL.map(|s| (s.name(), pool.restarts().total(s)));
-        finish(&run, result, totals)
+        finish(run.finish(), result, totals)
     } else {
         let node = run.node::<ipc::Service>("recorder")?;
         let recorder = Recorder::new(&run, &node, options.settings.mode, label)?;
@@ -111,12 +117,13 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
             Ok(restarted)
         });
         pool.stop(STOP_GRACE);
-        if let Err(e) = run.cleanup_dead_nodes::<ipc::Service>() {
-            tracing::warn!("cleaning up the run: {e}");
-        }
         drop(node);
+        let leftovers = claim.clean_up().unwrap_or_else(|e| {
+            tracing::warn!("cleaning up the run: {e}");
+            run.leftovers()
+        });
         let totals = Stage::ALL.map(|s| (s.name(), pool.restarts().total(s)));
-        finish(&run, result, totals)
+        finish(leftovers, result, totals)
     }
 }
 
@@ -163,11 +170,10 @@ fn supervise<S: Service>(
 }
 
 fn finish(
-    run: &IpcRun,
+    leftovers: Vec<PathBuf>,
     result: Supervised,
     totals: [(&'static str, u32); Stage::COUNT],
 ) -> CliResult<PipelineOutcome> {
-    let leftovers = run.finish();
     if !leftovers.is_empty() {
         tracing::warn!("files of the run left behind: {leftovers:?}");
     }

@@ -17,6 +17,8 @@ pub struct InlineOutcome {
     pub timings: BTreeMap<&'static str, Summary>,
     /// Keyframes in the map at the end.
     pub keyframes: usize,
+    /// True when SIGINT / SIGTERM stopped the run: `poses` holds the frames done.
+    pub interrupted: bool,
 }
 
 /// Runs the first `total` frames of `sequence`.
@@ -50,7 +52,12 @@ pub fn run(
     );
     let mut times = StageTimes::default();
     let mut poses = Vec::with_capacity(total);
+    let mut interrupted = false;
     for (index, frame) in sequence.frames(Some(total)).enumerate() {
+        if crate::pipeline::signals::interrupted() {
+            interrupted = true;
+            break;
+        }
         let pose = match frame {
             Ok(frame) => {
                 let rotation = odometry.predicted_rotation();
@@ -82,6 +89,7 @@ pub fn run(
         poses,
         timings: times.summarise(),
         keyframes: odometry.map().keyframe_count(),
+        interrupted,
     })
 }
 
