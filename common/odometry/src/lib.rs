@@ -41,6 +41,7 @@ mod rolling_shutter;
 pub mod session;
 mod status;
 mod tracker;
+mod validate;
 
 pub use config::{KeyframeConfig, MappingConfig, OdometryConfig, TrackingConfig};
 pub use frame::{FeatureError, FrameFeatures};

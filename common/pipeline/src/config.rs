@@ -141,11 +141,9 @@ impl Config {
     /// reported once, here, rather than by a stage that then dies on every restart.
     fn validate_stages(&self) -> Result<(), String> {
         self.points.validate().map_err(|e| e.to_string())?;
-        self.lines
-            .detect
-            .validate()
-            .map_err(|e| format!("lines.detect.{e}"))?;
-        self.planes.validate().map_err(|e| e.to_string())
+        self.lines.detect.validate().map_err(|e| e.to_string())?;
+        self.planes.validate().map_err(|e| e.to_string())?;
+        self.validate_tables().map_err(|e| e.to_string())
     }
 
     /// The config in `path`; else the folder's own `synthetic.toml` (written by

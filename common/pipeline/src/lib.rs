@@ -15,6 +15,7 @@
 //! of a stage executable.
 #![warn(missing_docs)]
 
+mod checks;
 pub mod config;
 pub mod service;
 pub mod stages;
