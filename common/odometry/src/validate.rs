@@ -3,6 +3,7 @@
 //! value that would make every frame fail is an error naming its field.
 
 use crate::config::{KeyframeConfig, MappingConfig, OdometryConfig, TrackingConfig};
+use crate::frame::FrameFeatures;
 use gfs_core::fields::{FieldError, Table};
 use gfs_optim::BaConfig;
 
@@ -18,6 +19,15 @@ impl OdometryConfig {
         self.tracking.validate()?;
         self.keyframes.validate()?;
         self.mapping.validate()
+    }
+}
+
+impl FrameFeatures {
+    /// True when the frame has no point and no line: its images were unreadable (the
+    /// pipeline's source publishes a blank frame for them) or show nothing. Every mode
+    /// gives such a frame the motion-model prediction without trying to track it.
+    pub fn is_blank(&self) -> bool {
+        self.keypoints.is_empty() && self.lines.is_empty()
     }
 }
 

@@ -88,11 +88,15 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         mark_ready(&mut header, Stage::Tracker, 0);
         header.mark_started(Stage::Tracker);
         let (id, timestamp) = (features.id, features.timestamp);
-        let (mut pose, request) = match session.process(features) {
-            Ok(out) => (out.pose, out.keyframe),
-            Err(e) => {
-                tracing::warn!("tracker: {e}; the pose is predicted");
-                (session.skip(id, timestamp), None)
+        let (mut pose, request) = if features.is_blank() {
+            (session.skip(id, timestamp), None)
+        } else {
+            match session.process(features) {
+                Ok(out) => (out.pose, out.keyframe),
+                Err(e) => {
+                    tracing::warn!("tracker: {e}; the pose is predicted");
+                    (session.skip(id, timestamp), None)
+                }
             }
         };
         if incomplete && pose.status == TrackingStatus::Tracked {

@@ -195,29 +195,33 @@ fn mode_name(options: &PipelineOptions) -> &'static str {
     }
 }
 
-/// The command line of every stage process.
+/// The command line of every stage process. Every value is joined to its flag
+/// (`--dataset=-x`), so that a path or id starting with `-` is not taken for a flag.
 fn stage_args(options: &PipelineOptions) -> Vec<OsString> {
     let s = &options.settings;
-    let mut args: Vec<OsString> = vec![
-        "--dataset".into(),
-        s.dataset.clone().into(),
-        "--run-id".into(),
-        options.run_id.as_str().into(),
-        "--mode".into(),
-        mode_name(options).into(),
-        "--log".into(),
-        options.log.clone().into(),
-    ];
-    let mut push = |flag: &str, value: Option<OsString>| {
-        if let Some(v) = value {
-            args.push(flag.into());
-            args.push(v);
-        }
+    let flag = |name: &str, value: &std::ffi::OsStr| {
+        let mut arg = OsString::from(format!("--{name}="));
+        arg.push(value);
+        arg
     };
-    push("--config", options.config_path.clone().map(Into::into));
-    push("--state-dir", s.state_dir.clone().map(Into::into));
-    push("--frames", s.frames.map(|n| n.to_string().into()));
-    push("--max-rate", s.max_rate.map(|r| r.to_string().into()));
+    let mut args: Vec<OsString> = vec![
+        flag("dataset", s.dataset.as_os_str()),
+        flag("run-id", options.run_id.as_str().as_ref()),
+        flag("mode", mode_name(options).as_ref()),
+        flag("log", options.log.as_ref()),
+    ];
+    if let Some(path) = &options.config_path {
+        args.push(flag("config", path.as_os_str()));
+    }
+    if let Some(dir) = &s.state_dir {
+        args.push(flag("state-dir", dir.as_os_str()));
+    }
+    if let Some(n) = s.frames {
+        args.push(flag("frames", n.to_string().as_ref()));
+    }
+    if let Some(rate) = s.max_rate {
+        args.push(flag("max-rate", rate.to_string().as_ref()));
+    }
     if options.no_lines {
         args.push("--no-lines".into());
     }

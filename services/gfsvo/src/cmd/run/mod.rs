@@ -236,13 +236,15 @@ fn interrupted(done: usize, total: usize, out: &Path) -> crate::CliError {
 /// Writes `trajectory.txt` (TUM) and `status.txt`; returns the trajectory.
 pub fn write_outputs(out: &Path, poses: &[FramePose]) -> CliResult<Trajectory> {
     let mut trajectory = Trajectory::new();
-    let mut status = std::io::BufWriter::new(std::fs::File::create(out.join("status.txt"))?);
-    writeln!(status, "# frame_id timestamp status")?;
+    let path = out.join("status.txt");
+    let named = |e: std::io::Error| format!("cannot write {}: {e}", path.display());
+    let mut status = std::io::BufWriter::new(std::fs::File::create(&path).map_err(named)?);
+    writeln!(status, "# frame_id timestamp status").map_err(named)?;
     for pose in poses {
         trajectory.push(pose.timestamp, pose.world_from_camera);
-        writeln!(status, "{} {:.6} {}", pose.id, pose.timestamp, pose.status)?;
+        writeln!(status, "{} {:.6} {}", pose.id, pose.timestamp, pose.status).map_err(named)?;
     }
-    status.flush()?;
+    status.flush().map_err(named)?;
     trajectory.write_tum(&out.join("trajectory.txt"))?;
     Ok(trajectory)
 }
