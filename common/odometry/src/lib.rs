@@ -32,6 +32,7 @@ mod manhattan;
 pub mod map;
 mod mapper;
 pub mod matching;
+mod messages_check;
 mod motion;
 mod odometry;
 mod pose_solver;
@@ -49,6 +50,7 @@ pub use frontend::{Frontend, FrontendError, FrontendTimings, StructureExtractor}
 pub use keyframe_policy::needs_keyframe;
 pub use manhattan::WorldManhattan;
 pub use mapper::Mapper;
+pub use messages_check::MessageError;
 pub use motion::MotionModel;
 pub use odometry::{Odometry, OdometryTimings};
 pub use pose_solver::Inliers;

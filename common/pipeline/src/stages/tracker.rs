@@ -90,6 +90,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         let (id, timestamp) = (features.id, features.timestamp);
         let (mut pose, request) = if features.is_blank() {
             (session.skip(id, timestamp), None)
+        } else if let Err(e) = features.check() {
+            tracing::warn!("tracker: inconsistent features: {e}; the pose is predicted");
+            (session.skip(id, timestamp), None)
         } else {
             match session.process(features) {
                 Ok(out) => (out.pose, out.keyframe),
@@ -143,6 +146,10 @@ fn resume(state: &StateDir, session: &mut TrackingSession) -> Result<u64, StageE
     let Some(checkpoint) = state.read::<TrackingCheckpoint>(CHECKPOINT)? else {
         return Ok(0);
     };
+    if let Some(Err(e)) = checkpoint.last.as_ref().map(|l| l.check()) {
+        tracing::warn!("tracker: {CHECKPOINT} is inconsistent ({e}); starting afresh");
+        return Ok(0);
+    }
     let mut maps = saved_maps(state).unwrap_or_else(|e| {
         tracing::warn!("tracker: {e}; starting a new map");
         Vec::new()
@@ -192,6 +199,10 @@ fn take_maps<S: Service>(
     while let Some((header, update)) =
         maps.receive_decoded::<MapUpdate>(MAX_VARIABLE_MESSAGE_BYTES)?
     {
+        if let Err(e) = update.check() {
+            tracing::warn!("tracker: dropping an inconsistent map: {e}");
+            continue;
+        }
         let answers = session
             .pending_request()
             .is_some_and(|(seq, _)| seq == update.seq);
