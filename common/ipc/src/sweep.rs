@@ -55,31 +55,30 @@ pub enum Liveness {
 
 impl IpcRun {
     /// Claims the run id for this process, after removing what a dead run with the same
-    /// id left behind.
+    /// id left behind. Live nodes of the id without its lock are observers (`gfsvo
+    /// record`, a test watching the poses): they are left alone and do not refuse it.
     ///
     /// # Errors
-    /// [`IpcError::RunInUse`] when a live run holds the id (its lock, or a live node);
-    /// [`IpcError::Lock`] when the lock file cannot be created.
+    /// [`IpcError::RunInUse`] when a live run holds the id's lock; [`IpcError::Lock`]
+    /// when the lock file cannot be created.
     pub fn claim(&self) -> Result<RunClaim, IpcError> {
         let lock = lock_run(self.run_id())?.map_err(|by| IpcError::RunInUse {
             run: self.run_id().to_string(),
             by,
         })?;
         match remove_if_dead(self, Duration::ZERO)? {
-            Liveness::Live(by) => Err(IpcError::RunInUse {
-                run: self.run_id().to_string(),
-                by,
-            }),
-            Liveness::Removed(n) => {
-                if n > 0 {
-                    tracing::info!(run = %self.run_id(), "removed {n} files a dead run left");
-                }
-                Ok(RunClaim {
-                    _lock: lock,
-                    run: self.clone(),
-                })
+            Liveness::Live(who) => {
+                tracing::debug!(run = %self.run_id(), "files kept: {who}");
             }
+            Liveness::Removed(n) if n > 0 => {
+                tracing::info!(run = %self.run_id(), "removed {n} files a dead run left");
+            }
+            Liveness::Removed(_) => {}
         }
+        Ok(RunClaim {
+            _lock: lock,
+            run: self.clone(),
+        })
     }
 
     /// Removes every file of the run if no node of it lives (for a process that observed

@@ -115,7 +115,7 @@ impl TrackedFrame {
 }
 
 impl KeyFrameRequest {
-    /// Checks the request number, the frame and the sighting counts.
+    /// Checks the request number, the frame and the Manhattan axes.
     ///
     /// # Errors
     /// [`MessageError`] naming the first field that is wrong.
@@ -126,16 +126,6 @@ impl KeyFrameRequest {
             return fail("keyframe request seq 0 (requests count from 1)".to_owned());
         }
         self.frame.check()?;
-        if let Some(s) = self.point_sightings.iter().find(|s| s.found > s.visible) {
-            return fail(format!(
-                "point_sightings: {s:?} found more often than visible"
-            ));
-        }
-        if let Some(s) = self.line_sightings.iter().find(|s| s.found > s.visible) {
-            return fail(format!(
-                "line_sightings: {s:?} found more often than visible"
-            ));
-        }
         if let Some(axes) = self.manhattan.axes()
             && !finite(axes.matrix().as_slice())
         {

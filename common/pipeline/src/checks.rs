@@ -109,7 +109,16 @@ impl Config {
             1,
         )?;
         t.at_least("resend_after_ms", p.resend_after_ms, 1)?;
-        t.at_least("restart_window_s", p.restart_window_s, 1)
+        t.at_least("restart_window_s", p.restart_window_s, 1)?;
+        let deadline = p
+            .lockstep_feature_deadline_ms
+            .max(p.realtime_feature_deadline_ms);
+        t.require(
+            "hang_timeout_ms",
+            p.hang_timeout_ms,
+            p.hang_timeout_ms > deadline,
+            "above both feature deadlines",
+        )
     }
 }
 

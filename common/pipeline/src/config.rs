@@ -59,6 +59,11 @@ pub struct PipelineConfig {
     pub max_restarts: u32,
     /// The window of `max_restarts`, seconds. Default 30.
     pub restart_window_s: u64,
+    /// A stage that publishes nothing for this long while its input waits is taken for
+    /// hung (stopped, deadlocked) and killed, then restarted as a dead one is, ms. Above
+    /// both feature deadlines (a stage may wait that long for a missing input). Default
+    /// 20000.
+    pub hang_timeout_ms: u64,
 }
 
 impl Default for PipelineConfig {
@@ -69,6 +74,7 @@ impl Default for PipelineConfig {
             resend_after_ms: 4000,
             max_restarts: 5,
             restart_window_s: 30,
+            hang_timeout_ms: 20_000,
         }
     }
 }

@@ -17,6 +17,7 @@
 
 mod checks;
 pub mod config;
+pub mod progress;
 pub mod service;
 pub mod stages;
 pub mod state;

@@ -1,7 +1,7 @@
 //! Property test of the message checks: thousands of random keyframe requests and
 //! feature sets, each either consistent or broken in one random way that still encodes
 //! and decodes (a vector one entry short or long, a NaN or infinity in a field, an
-//! impossible count or id). Every one goes through bincode like a real message; the
+//! impossible request number). Every one goes through bincode like a real message; the
 //! check must refuse exactly the broken ones, and the mapper must take every one it
 //! accepts without panicking. Generated with the project's SplitMix64 (fixed seed).
 
@@ -138,11 +138,7 @@ fn break_request(r: &mut KeyFrameRequest, how: u64, rng: &mut SplitMix64) -> boo
             true
         }
         10 => {
-            r.point_sightings.push(SightingCount {
-                id: MapPointId(3),
-                visible: 1,
-                found: 2,
-            });
+            f.features.timestamp = f64::NAN;
             true
         }
         _ => {

@@ -76,6 +76,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         header.mark_finished(Stage::Mapper);
         publisher.publish_slice(&header, &bytes)?;
+        ctx.made(header.frame_id);
         let name = MAP_CHECKPOINTS[(session.last_applied() % 2) as usize];
         state.write_bytes(name, &bytes)?;
     }

@@ -112,6 +112,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                 tracing::error!(frame = %id, "tracker: cannot encode the keyframe: {e}");
             } else {
                 ports.keyframes.publish_slice(&header, &bytes)?;
+                ctx.requested(id.0);
                 outstanding = Some(Outstanding {
                     header,
                     bytes,
@@ -134,6 +135,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         let predicted = session.predicted_quaternion();
         let wire = WirePose::new(&pose, predicted.as_ref(), keyframe);
         ports.poses.publish_slice(&header, &[wire])?;
+        ctx.made(id.0);
         state.write(CHECKPOINT, &session.checkpoint(), &mut scratch)?;
         next_frame = id.0 + 1;
         join.drop_before(next_frame);

@@ -7,6 +7,7 @@ mod recorder;
 mod restarts;
 pub mod signals;
 mod threads;
+mod watchdog;
 
 pub use recorder::{Recorder, complete_trajectory};
 
@@ -15,6 +16,7 @@ use children::StageProcesses;
 use gfs_ipc::profile::Profile;
 use gfs_ipc::{IpcRun, RunId, Service, Stage, ipc, local};
 use gfs_odometry::FramePose;
+use gfs_pipeline::progress::ProgressBoard;
 use gfs_pipeline::stages::StageSettings;
 use restarts::RestartPolicy;
 use std::collections::BTreeMap;
@@ -22,6 +24,7 @@ use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use threads::StageThreads;
+use watchdog::Watchdog;
 
 /// With no new pose for this long, the run is declared stalled.
 const STALL: Duration = Duration::from_secs(60);
@@ -107,9 +110,27 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
             .parent()
             .map(Path::to_path_buf)
             .unwrap_or_default();
+        let mut watchdog = options.settings.state_dir.as_deref().and_then(|dir| {
+            let timeout = options.settings.config.pipeline.hang_timeout_ms;
+            ProgressBoard::create(dir)
+                .map(|board| {
+                    let timeout = Duration::from_millis(timeout);
+                    Watchdog::new(board, timeout, options.total, options.settings.mode)
+                })
+                .map_err(|e| tracing::warn!("no hung-stage detection: {e}"))
+                .ok()
+        });
         let mut pool = StageProcesses::start(&dir, stage_args(options), policy)?;
         write_pids(&options.out, &pool.pids());
         let result = supervise(&run, recorder, options, |run| {
+            for (stage, idle) in watchdog.as_mut().map(Watchdog::overdue).unwrap_or_default() {
+                tracing::warn!(
+                    stage = stage.name(),
+                    "stage published nothing for {:.1} s while its input waited; killing it as hung",
+                    idle.as_secs_f64()
+                );
+                pool.kill(stage);
+            }
             let restarted = pool.restart_dead(run)?;
             if !restarted.is_empty() {
                 write_pids(&options.out, &pool.pids());
