@@ -12,7 +12,7 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 
-use iceoryx2::node::{NodeState, NodeView};
+use iceoryx2::node::{DeadNodeView, NodeState, NodeView};
 use iceoryx2::prelude::{CallbackProgression, Node, ipc};
 
 use crate::error::IpcError;
@@ -145,57 +145,37 @@ fn lock_run(id: &RunId) -> Result<Result<FileLock, String>, IpcError> {
 /// Removes every file of `run` if nothing of it lives. A run without any node counts as
 /// live while a file of it is younger than `grace`.
 fn remove_if_dead(run: &IpcRun, grace: Duration) -> Result<Liveness, IpcError> {
-    let mut dead = Vec::new();
-    let mut half_made = Vec::new();
-    let mut live = None;
-    Node::<ipc::Service>::list(run.config(), |state| {
-        match state {
-            NodeState::Alive(view) => {
-                let pid = NodeView::details(&view)
-                    .as_ref()
-                    .map(|d| d.process_id().value());
-                live = Some(format!("a live node (pid {pid:?})"));
-            }
-            NodeState::Dead(view) => dead.push(view),
-            NodeState::Inaccessible(id) => live = Some(format!("inaccessible node {id}")),
-            NodeState::Undefined(id) => match id.pid::<ipc::Service>() {
-                Ok(pid) if process_alive(pid.value()) => {
-                    live = Some(format!("a node being made by pid {}", pid.value()));
-                }
-                _ => half_made.push(id.value()),
-            },
-        }
-        if live.is_some() {
-            CallbackProgression::Stop
-        } else {
-            CallbackProgression::Continue
-        }
-    })
-    .map_err(|reason| IpcError::NodeList {
-        run: run.run_id().to_string(),
-        reason,
-    })?;
-    if let Some(why) = live {
+    // Listed first: a file made after this (a process joining the run meanwhile, whose
+    // node the scan below may have missed) is never removed.
+    let found = run.leftovers();
+    let nodes = scan(run)?;
+    if let Some(why) = nodes.live {
         return Ok(Liveness::Live(why));
     }
-    let found = run.leftovers();
-    if dead.is_empty() && half_made.is_empty() && younger_than(&found, grace) {
-        return Ok(Liveness::Live("no node yet, files just made".to_owned()));
+    if nodes.dead.is_empty() && nodes.half_made.is_empty() {
+        if found.is_empty() {
+            return Ok(Liveness::Removed(0));
+        }
+        if younger_than(&found, grace) {
+            return Ok(Liveness::Live("no node yet, files just made".to_owned()));
+        }
     }
-    for view in dead {
+    for view in nodes.dead {
         if let Err(e) = view.try_remove_stale_resources() {
             tracing::warn!(run = %run.run_id(), "dead node cleanup failed: {e:?}");
         }
     }
     let prefix = run.file_prefix();
-    for id in half_made {
+    for id in nodes.half_made {
         remove_prefixed_in(
             &Path::new(IPC_ROOT).join("nodes").join(id.to_string()),
             &prefix,
         );
     }
-    let files = run.leftovers();
-    for path in &files {
+    if let Some(why) = scan(run)?.live {
+        return Ok(Liveness::Live(why));
+    }
+    for path in run.leftovers().iter().filter(|p| found.contains(p)) {
         let removed = if path.is_dir() {
             std::fs::remove_dir_all(path)
         } else {
@@ -206,7 +186,53 @@ fn remove_if_dead(run: &IpcRun, grace: Duration) -> Result<Liveness, IpcError> {
         }
         remove_empty_node_dir(path);
     }
-    Ok(Liveness::Removed(found.len().max(files.len())))
+    Ok(Liveness::Removed(found.len()))
+}
+
+/// The nodes of a run, sorted by what can be done with them.
+struct Scan {
+    /// Why the run counts as live, if it does.
+    live: Option<String>,
+    /// Nodes whose process died: iceoryx2 removes their resources.
+    dead: Vec<DeadNodeView<ipc::Service>>,
+    /// Node folders (by id) whose process died while it made them.
+    half_made: Vec<u128>,
+}
+
+fn scan(run: &IpcRun) -> Result<Scan, IpcError> {
+    let mut nodes = Scan {
+        live: None,
+        dead: Vec::new(),
+        half_made: Vec::new(),
+    };
+    Node::<ipc::Service>::list(run.config(), |state| {
+        match state {
+            NodeState::Alive(view) => {
+                let pid = NodeView::details(&view)
+                    .as_ref()
+                    .map(|d| d.process_id().value());
+                nodes.live = Some(format!("a live node (pid {pid:?})"));
+            }
+            NodeState::Dead(view) => nodes.dead.push(view),
+            NodeState::Inaccessible(id) => nodes.live = Some(format!("inaccessible node {id}")),
+            NodeState::Undefined(id) => match id.pid::<ipc::Service>() {
+                Ok(pid) if process_alive(pid.value()) => {
+                    nodes.live = Some(format!("a node being made by pid {}", pid.value()));
+                }
+                _ => nodes.half_made.push(id.value()),
+            },
+        }
+        if nodes.live.is_some() {
+            CallbackProgression::Stop
+        } else {
+            CallbackProgression::Continue
+        }
+    })
+    .map_err(|reason| IpcError::NodeList {
+        run: run.run_id().to_string(),
+        reason,
+    })?;
+    Ok(nodes)
 }
 
 /// Removes the entries of `dir` named `prefix...`, then `dir` itself if empty.
