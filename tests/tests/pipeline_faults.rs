@@ -10,195 +10,14 @@
 //! The test drives the real executables (`gfsvo`, `gfsvo-*`): it builds them once with
 //! the cargo that runs it (a no-op when they are up to date).
 
-use gfs_ipc::{IpcRun, Mode, RunId, TopicSubscriber, ipc, topics};
-use gfs_pipeline::wire::WirePose;
-use gfs_synth::{SplitMix64, SynthConfig, SynthSequence};
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+mod common;
+
+use common::{FRAMES, PoseWatch, STAGES, binaries, finish, out_dir, pid_of, run_id, start};
+use gfs_synth::SplitMix64;
+use std::path::Path;
+use std::process::Child;
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
-
-const FRAMES: usize = 150;
-const STAGES: [&str; 6] = ["source", "points", "lines", "planes", "tracker", "mapper"];
-
-/// The folder holding `gfsvo` and the stage executables, built if needed.
-fn binaries() -> &'static Path {
-    static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let exe = std::env::current_exe().unwrap();
-        // <target>/release/deps/<test> -> <target>/release
-        let dir = exe.parent().and_then(Path::parent).unwrap().to_path_buf();
-        let target = dir.parent().unwrap();
-        let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-        let mut build = Command::new(env!("CARGO"));
-        build
-            .args(["build", "--release", "--bins", "--manifest-path"])
-            .arg(workspace.join("Cargo.toml"))
-            .env("CARGO_TARGET_DIR", target);
-        for package in ["gfsvo"].iter().chain(STAGES.iter()) {
-            let name = if *package == "gfsvo" {
-                "gfsvo".to_owned()
-            } else {
-                format!("gfsvo-{package}")
-            };
-            build.args(["-p", &name]);
-        }
-        let status = build.status().expect("cargo runs");
-        assert!(status.success(), "building the executables failed");
-        dir
-    })
-}
-
-/// The synthetic sequence every run plays (rendered once per target folder).
-fn sequence() -> &'static Path {
-    static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("synth_faults_{FRAMES}"));
-        if !dir.join("associations.txt").is_file() {
-            let config = SynthConfig {
-                frames: FRAMES,
-                ..SynthConfig::default()
-            };
-            SynthSequence::new(config).write_tum(&dir, |_| ()).unwrap();
-        }
-        dir
-    })
-}
-
-struct Outcome {
-    success: bool,
-    ate: f64,
-    degraded: u64,
-    trajectory: String,
-    restarts: BTreeMap<String, u64>,
-    trajectory_lines: usize,
-    stderr: String,
-}
-
-fn start(bin: &Path, run_id: &str, out: &Path, extra: &[&str]) -> Child {
-    let _ = std::fs::remove_dir_all(out);
-    std::fs::create_dir_all(out).unwrap();
-    Command::new(bin.join("gfsvo"))
-        .arg("run")
-        .arg(sequence())
-        .arg("--out")
-        .arg(out)
-        .args(["--run-id", run_id, "--json", "--log", "warn"])
-        .args(extra)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap()
-}
-
-fn finish(child: Child, out: &Path, run_id: &str) -> Outcome {
-    let output = child.wait_with_output().unwrap();
-    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
-    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
-    let json: serde_json::Value = stdout
-        .lines()
-        .last()
-        .and_then(|l| serde_json::from_str(l).ok())
-        .unwrap_or_default();
-    let restarts = json["restarts"]
-        .as_object()
-        .map(|m| {
-            m.iter()
-                .map(|(k, v)| (k.clone(), v.as_u64().unwrap_or(0)))
-                .collect()
-        })
-        .unwrap_or_default();
-    let trajectory = std::fs::read_to_string(out.join("trajectory.txt")).unwrap_or_default();
-    let trajectory_lines = trajectory.lines().filter(|l| !l.starts_with('#')).count();
-    assert_nothing_left(run_id);
-    Outcome {
-        success: output.status.success(),
-        ate: json["ate_rmse_m"].as_f64().unwrap_or(f64::INFINITY),
-        degraded: json["status"]["degraded"].as_u64().unwrap_or(0),
-        trajectory,
-        restarts,
-        trajectory_lines,
-        stderr,
-    }
-}
-
-/// No process of the run alive, no iceoryx2 file or shared memory of it.
-fn assert_nothing_left(run_id: &str) {
-    let needle = format!("--run-id\0{run_id}\0");
-    let alive: Vec<String> = std::fs::read_dir("/proc")
-        .unwrap()
-        .flatten()
-        .filter_map(|e| std::fs::read(e.path().join("cmdline")).ok())
-        .map(|c| String::from_utf8_lossy(&c).into_owned())
-        .filter(|c| c.contains(&needle))
-        .collect();
-    assert!(
-        alive.is_empty(),
-        "processes of run {run_id} alive: {alive:?}"
-    );
-    let run = IpcRun::new(RunId::new(run_id).unwrap()).unwrap();
-    assert_eq!(
-        run.leftovers(),
-        Vec::<PathBuf>::new(),
-        "files of run {run_id}"
-    );
-}
-
-/// Watches the poses of a run from the test process.
-struct PoseWatch {
-    _node: iceoryx2::node::Node<ipc::Service>,
-    poses: TopicSubscriber<ipc::Service, WirePose>,
-    _run: IpcRun,
-    last: Option<u64>,
-}
-
-impl PoseWatch {
-    fn new(run_id: &str) -> Self {
-        let run = IpcRun::new(RunId::new(run_id).unwrap()).unwrap();
-        let node = run.node::<ipc::Service>("faulttest").unwrap();
-        let poses = TopicSubscriber::create(
-            &run,
-            &node,
-            topics::POSE.name,
-            &topics::POSE.qos(Mode::Lockstep),
-        )
-        .unwrap();
-        Self {
-            _node: node,
-            poses,
-            _run: run,
-            last: None,
-        }
-    }
-
-    /// Waits until frame `id` has a pose (false if the run ended first).
-    fn reach(&mut self, id: u64, child: &mut Child) -> bool {
-        let deadline = Instant::now() + Duration::from_secs(120);
-        while Instant::now() < deadline {
-            while let Ok(Some(s)) = self.poses.receive() {
-                if let Some(p) = s.payload().first() {
-                    self.last = Some(self.last.map_or(p.frame_id, |l| l.max(p.frame_id)));
-                }
-            }
-            if self.last.is_some_and(|l| l >= id) {
-                return true;
-            }
-            if matches!(child.try_wait(), Ok(Some(_))) {
-                return false;
-            }
-            let _ = self.poses.wait(Duration::from_millis(5));
-        }
-        false
-    }
-}
-
-fn pid_of(out: &Path, stage: &str) -> Option<i32> {
-    let text = std::fs::read_to_string(out.join("pids.json")).ok()?;
-    let map: BTreeMap<String, i32> = serde_json::from_str(&text).ok()?;
-    map.get(stage).copied()
-}
-
 /// Kills `stage` with SIGKILL when frames `at` are reached; returns the kills done.
 fn kill_at(run_id: &str, out: &Path, stage: &str, at: &[u64], child: &mut Child) -> usize {
     let mut watch = PoseWatch::new(run_id);
@@ -224,14 +43,6 @@ fn random_frames(seed: u64) -> [u64; 3] {
     let mut rng = SplitMix64::new(seed);
     let third = (FRAMES / 3) as u64;
     [0, 1, 2].map(|k| k * third + 5 + rng.next_u64() % (third - 15))
-}
-
-fn run_id(tag: &str) -> String {
-    format!("ft{tag}{}", std::process::id() % 100_000)
-}
-
-fn out_dir(tag: &str) -> PathBuf {
-    Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("faults_{tag}"))
 }
 
 /// ATE and trajectory of the run without faults.
@@ -323,10 +134,14 @@ fn sigterm_to_the_supervisor_stops_everything() {
     let o = finish(child, &out, &id);
     assert!(!o.success, "an interrupted run reports failure");
     assert!(o.stderr.contains("interrupted"), "{}", o.stderr);
-    assert_eq!(
-        o.trajectory_lines, FRAMES,
-        "the partial trajectory has every frame"
+    // Only the frames processed: none after the last pose, none made up.
+    assert!(
+        o.trajectory_lines > 40 && o.trajectory_lines < FRAMES,
+        "{} poses",
+        o.trajectory_lines
     );
+    let status = std::fs::read_to_string(out.join("status.txt")).unwrap();
+    assert!(!status.contains("predicted"), "{status}");
 }
 
 #[test]

@@ -31,6 +31,7 @@
 
 pub mod align;
 pub mod camera;
+pub mod fields;
 pub mod ids;
 mod image;
 pub mod rng;

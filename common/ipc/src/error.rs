@@ -25,6 +25,22 @@ pub enum IpcError {
         /// Why it was rejected.
         reason: String,
     },
+    /// Another live run holds the run id.
+    #[error("run id {run} is in use by {by}: pick another --run-id or stop that run")]
+    RunInUse {
+        /// Run id.
+        run: String,
+        /// Who holds it.
+        by: String,
+    },
+    /// A lock file could not be created or locked.
+    #[error("cannot lock {path}: {source}")]
+    Lock {
+        /// The lock file.
+        path: std::path::PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
     /// The iceoryx2 node could not be created.
     #[error("run {run}: cannot create node {node:?}: {reason:?}")]
     Node {

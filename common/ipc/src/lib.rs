@@ -86,10 +86,12 @@ pub mod codec;
 mod error;
 pub mod frame;
 mod header;
+mod lock;
 mod messages;
 pub mod profile;
 mod qos;
 mod run;
+mod sweep;
 mod topic;
 pub mod topics;
 
@@ -98,11 +100,15 @@ pub use codec::{CodecError, MAX_VARIABLE_MESSAGE_BYTES, decode_message, encode_m
 pub use error::IpcError;
 pub use frame::{FrameError, FrameImages, FrameLayout, FrameView, FrameViewMut};
 pub use header::{MsgHeader, Stage, StageStamp};
+pub use lock::{FileLock, Holder};
 pub use messages::{frame_view, frame_view_mut};
 pub use profile::{Profile, ProfileError, ProfileSummary};
 pub use qos::{Mode, TopicKind, TopicQos};
 pub use run::{
     CleanupReport, IPC_ROOT, IpcRun, MAX_RUN_ID_LEN, NodeInfo, RUN_ID_ENV, RunId, SHM_DIR,
+};
+pub use sweep::{
+    LOCK_DIR, Liveness, RunClaim, STARTING_GRACE, SweepReport, runs_on_disk, sweep_dead_runs,
 };
 pub use topic::{PAYLOAD_ALIGNMENT, TopicPublisher, TopicSample, TopicSampleMut, TopicSubscriber};
 

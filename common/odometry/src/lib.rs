@@ -32,6 +32,7 @@ mod manhattan;
 pub mod map;
 mod mapper;
 pub mod matching;
+mod messages_check;
 mod motion;
 mod odometry;
 mod pose_solver;
@@ -41,6 +42,7 @@ mod rolling_shutter;
 pub mod session;
 mod status;
 mod tracker;
+mod validate;
 
 pub use config::{KeyframeConfig, MappingConfig, OdometryConfig, TrackingConfig};
 pub use frame::{FeatureError, FrameFeatures};
@@ -48,6 +50,7 @@ pub use frontend::{Frontend, FrontendError, FrontendTimings, StructureExtractor}
 pub use keyframe_policy::needs_keyframe;
 pub use manhattan::WorldManhattan;
 pub use mapper::Mapper;
+pub use messages_check::MessageError;
 pub use motion::MotionModel;
 pub use odometry::{Odometry, OdometryTimings};
 pub use pose_solver::Inliers;

@@ -60,6 +60,11 @@ pub struct PipelineConfig {
     pub max_restarts: u32,
     /// The window of `max_restarts`, seconds. Default 30.
     pub restart_window_s: u64,
+    /// A stage that publishes nothing for this long while its input waits is taken for
+    /// hung (stopped, deadlocked) and killed, then restarted as a dead one is, ms. Above
+    /// both feature deadlines (a stage may wait that long for a missing input). Default
+    /// 20000.
+    pub hang_timeout_ms: u64,
     /// Realtime: the longest a keyframe's local BA may run, ms; it also stops as soon as
     /// the next keyframe request arrives, keeping its best iterate (ORB-SLAM2's abort
     /// flag). Lockstep and inline runs ignore it, so that they stay reproducible.
@@ -77,6 +82,7 @@ impl Default for PipelineConfig {
             resend_after_ms: 4000,
             max_restarts: 5,
             restart_window_s: 30,
+            hang_timeout_ms: 20_000,
             realtime_ba_budget_ms: 40,
             scheduling: SchedulingConfig::default(),
         }
@@ -151,14 +157,9 @@ impl Config {
     /// reported once, here, rather than by a stage that then dies on every restart.
     fn validate_stages(&self) -> Result<(), String> {
         self.points.validate().map_err(|e| e.to_string())?;
-        self.lines
-            .detect
-            .validate()
-            .map_err(|e| format!("lines.detect.{e}"))?;
+        self.lines.detect.validate().map_err(|e| e.to_string())?;
         self.planes.validate().map_err(|e| e.to_string())?;
-        if self.pipeline.realtime_ba_budget_ms == 0 {
-            return Err("pipeline.realtime_ba_budget_ms: must be above 0".to_owned());
-        }
+        self.validate_tables().map_err(|e| e.to_string())?;
         self.pipeline
             .scheduling
             .validate()

@@ -15,7 +15,9 @@
 //! of a stage executable.
 #![warn(missing_docs)]
 
+mod checks;
 pub mod config;
+pub mod progress;
 pub mod scheduling;
 pub mod service;
 pub mod stages;

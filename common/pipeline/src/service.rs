@@ -74,10 +74,13 @@ impl StageArgs {
 /// supervisor restarts it.
 pub fn service_main(stage: Stage) -> ExitCode {
     let args = <StageArgs as clap::Parser>::parse();
-    let filter = tracing_subscriber::EnvFilter::try_new(&args.log)
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    let filter = log_filter(&args.log).unwrap_or_else(|e| {
+        eprintln!("gfsvo-{}: {e}; logging warnings", stage.name());
+        tracing_subscriber::EnvFilter::new("warn")
+    });
     tracing_subscriber::fmt()
         .with_env_filter(filter)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .with_writer(std::io::stderr)
         .init();
     match run(stage, &args) {
@@ -89,6 +92,28 @@ pub fn service_main(stage: Stage) -> ExitCode {
     }
 }
 
+/// The log filter of `--log`: a level (`error`, `warn`, `info`, `debug`, `trace`, `off`)
+/// or comma-separated `target=level` directives. A bare word that is not a level would
+/// be read by `tracing` as a target and hide every other message, so it is an error.
+///
+/// # Errors
+/// Naming the directive that is neither.
+pub fn log_filter(text: &str) -> Result<tracing_subscriber::EnvFilter, String> {
+    const LEVELS: [&str; 6] = ["error", "warn", "info", "debug", "trace", "off"];
+    let invalid = |why: String| {
+        format!(
+            "--log {text:?}: {why}; expected a level (error, warn, info, debug, trace, off) or target=level directives"
+        )
+    };
+    for directive in text.split(',').map(str::trim) {
+        let level = directive.rsplit_once('=').map_or(directive, |(_, l)| l);
+        if !LEVELS.contains(&level.to_ascii_lowercase().as_str()) {
+            return Err(invalid(format!("{directive:?} names no level")));
+        }
+    }
+    tracing_subscriber::EnvFilter::try_new(text).map_err(|e| invalid(e.to_string()))
+}
+
 fn run(stage: Stage, args: &StageArgs) -> Result<(), Box<dyn std::error::Error>> {
     let settings = args.settings()?;
     let run = IpcRun::new(RunId::new(&args.run_id)?)?;
@@ -97,4 +122,25 @@ fn run(stage: Stage, args: &StageArgs) -> Result<(), Box<dyn std::error::Error>>
     run_stage(stage, &ctx)?;
     tracing::debug!(stage = stage.name(), "stopped");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::log_filter;
+
+    #[test]
+    fn a_log_filter_without_a_level_is_an_error() {
+        for good in [
+            "warn",
+            "INFO",
+            "gfs_odometry=debug",
+            "warn,gfs_pipeline=trace",
+        ] {
+            assert!(log_filter(good).is_ok(), "{good}");
+        }
+        for bad in ["nonsense", "", "warn,oops", "gfs_odometry=loud"] {
+            let e = log_filter(bad).unwrap_err();
+            assert!(e.contains("--log") && e.contains("expected a level"), "{e}");
+        }
+    }
 }

@@ -1,4 +1,4 @@
-//! Malformed and truncated variable-size messages reaching a running stage are dropped
+//! Malformed, truncated and well-formed but inconsistent variable-size messages reaching a running stage are dropped
 //! with a log line; the stage goes on and answers the next valid message. Drives the
 //! mapper stage as a thread over iceoryx2 local services.
 
@@ -111,6 +111,13 @@ fn the_mapper_drops_bad_keyframe_messages_and_answers_the_next_good_one() {
     trailing.push(0);
     publisher.publish_slice(&header, &trailing).unwrap();
     publisher.publish_slice(&header, &[]).unwrap();
+    // Well-formed but inconsistent: one landmark link fewer than keypoints (this
+    // indexed out of bounds in the mapper before requests were checked).
+    let mut short = request();
+    short.frame.point_ids.pop();
+    let mut inconsistent = Vec::new();
+    encode_message(&short, &mut inconsistent).unwrap();
+    publisher.publish_slice(&header, &inconsistent).unwrap();
     publisher.publish_slice(&header, &valid).unwrap();
 
     let mut answers = Vec::new();

@@ -49,11 +49,16 @@ enum Command {
     /// Record the poses and stage profile of a pipeline whose stages run as services
     /// (systemd): trajectory.txt, status.txt, profile.json, until SIGINT / SIGTERM.
     Record(cmd::record::RecordArgs),
+    /// Remove what dead runs left in /dev/shm and /tmp/iceoryx2 (never a live run's files).
+    Clean(cmd::clean::CleanArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    init_logging(&cli.log);
+    if let Err(e) = init_logging(&cli.log) {
+        eprintln!("error: {e}");
+        return ExitCode::FAILURE;
+    }
     let result = match &cli.command {
         Command::Run(args) => cmd::run::run(args, &cli.log),
         Command::Eval(args) => cmd::eval::run(args),
@@ -61,26 +66,69 @@ fn main() -> ExitCode {
         Command::Bench(command) => bench::run(command),
         Command::Profile(args) => cmd::profile::run(args),
         Command::Record(args) => cmd::record::run(args),
+        Command::Clean(args) => cmd::clean::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
-            let mut source = e.source();
-            while let Some(cause) = source {
-                eprintln!("  caused by: {cause}");
-                source = cause.source();
-            }
+            eprint!("{}", error_report(e.as_ref()));
             ExitCode::FAILURE
         }
     }
 }
 
-fn init_logging(filter: &str) {
-    let filter = tracing_subscriber::EnvFilter::try_new(filter)
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+/// The error and its causes, one per line; a cause whose text the line above already
+/// holds (errors that print their source) is not repeated.
+fn error_report(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut out = format!("error: {e}\n");
+    let mut above = e.to_string();
+    let mut source = e.source();
+    while let Some(cause) = source {
+        let text = cause.to_string();
+        if !above.contains(&text) {
+            out.push_str(&format!("  caused by: {text}\n"));
+        }
+        above = text;
+        source = cause.source();
+    }
+    out
+}
+
+/// Logging to stderr, coloured only on a terminal.
+///
+/// # Errors
+/// When `filter` is neither a level nor `target=level` directives.
+fn init_logging(filter: &str) -> CliResult {
+    let filter = gfs_pipeline::service::log_filter(filter)?;
     tracing_subscriber::fmt()
         .with_env_filter(filter)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .with_writer(std::io::stderr)
         .init();
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("cannot read x.toml: {0}")]
+    struct Outer(#[source] std::io::Error);
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("run failed")]
+    struct Top(#[source] Outer);
+
+    #[test]
+    fn a_cause_the_line_above_already_says_is_not_repeated() {
+        let io = || std::io::Error::other("disk on fire");
+        let report = error_report(&Outer(io()));
+        assert_eq!(report, "error: cannot read x.toml: disk on fire\n");
+        let report = error_report(&Top(Outer(io())));
+        assert_eq!(
+            report,
+            "error: run failed\n  caused by: cannot read x.toml: disk on fire\n"
+        );
+    }
 }

@@ -2,6 +2,7 @@
 //! stop request.
 
 use crate::config::{Config, ConfigError};
+use crate::progress::ProgressBoard;
 use crate::state::{StateDir, StateError};
 use gfs_ipc::topics::TopicSpec;
 use gfs_ipc::{
@@ -86,6 +87,7 @@ pub struct StageContext<S: Service> {
     pub settings: StageSettings,
     stop: Arc<AtomicBool>,
     stage: Stage,
+    board: Option<ProgressBoard>,
 }
 
 impl<S: Service> StageContext<S> {
@@ -96,12 +98,14 @@ impl<S: Service> StageContext<S> {
     /// [`IpcError`] when the node cannot be created.
     pub fn process(run: IpcRun, stage: Stage, settings: StageSettings) -> Result<Self, IpcError> {
         let node = run.stage_node(stage)?;
+        let board = settings.state_dir.as_deref().and_then(ProgressBoard::open);
         Ok(Self {
             run,
             node,
             settings,
             stop: Arc::new(AtomicBool::new(false)),
             stage,
+            board,
         })
     }
 
@@ -116,12 +120,14 @@ impl<S: Service> StageContext<S> {
         stop: Arc<AtomicBool>,
     ) -> Result<Self, IpcError> {
         let node = run.node(stage.name())?;
+        let board = settings.state_dir.as_deref().and_then(ProgressBoard::open);
         Ok(Self {
             run,
             node,
             settings,
             stop,
             stage,
+            board,
         })
     }
 
@@ -161,6 +167,20 @@ impl<S: Service> StageContext<S> {
             frames.wait(idle)?;
         }
         Ok(sample)
+    }
+
+    /// Notes on the progress board that the stage published frame `frame`.
+    pub fn made(&self, frame: u64) {
+        if let Some(board) = &self.board {
+            board.made(self.stage, frame);
+        }
+    }
+
+    /// Notes on the progress board that the tracker asked for keyframe `frame`.
+    pub fn requested(&self, frame: u64) {
+        if let Some(board) = &self.board {
+            board.requested(frame);
+        }
     }
 
     /// The run's checkpoint folder.

@@ -47,6 +47,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             *slot = WireLine::new(line, d, l3);
         }
         publisher.send(out)?;
+        ctx.made(header.frame_id);
     }
     Ok(())
 }

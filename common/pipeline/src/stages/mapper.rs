@@ -19,8 +19,10 @@ pub const MAP_CHECKPOINTS: [&str; 2] = ["map.0.bin", "map.1.bin"];
 pub fn saved_maps(state: &StateDir) -> Result<Vec<MapUpdate>, StateError> {
     let mut maps = Vec::new();
     for name in MAP_CHECKPOINTS {
-        if let Some(map) = state.read::<MapUpdate>(name)? {
-            maps.push(map);
+        match state.read::<MapUpdate>(name)? {
+            Some(map) if map.check().is_ok() => maps.push(map),
+            Some(map) => tracing::warn!("{name}: {}", map.check().unwrap_err()),
+            None => {}
         }
     }
     maps.sort_by_key(|m| std::cmp::Reverse(m.seq));
@@ -58,6 +60,10 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             requests.wait(POLL * 25)?;
             continue;
         };
+        if let Err(e) = request.check() {
+            tracing::warn!("mapper: dropping an inconsistent keyframe request: {e}");
+            continue;
+        }
         header.mark_received(Stage::Mapper);
         header.mark_started(Stage::Mapper);
         let update = session.insert(request);
@@ -70,6 +76,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         header.mark_finished(Stage::Mapper);
         publisher.publish_slice(&header, &bytes)?;
+        ctx.made(header.frame_id);
         let name = MAP_CHECKPOINTS[(session.last_applied() % 2) as usize];
         state.write_bytes(name, &bytes)?;
     }

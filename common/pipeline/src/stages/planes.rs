@@ -139,6 +139,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             Some(a) => publisher.publish_slice(&header, &[WireManhattan::new(a)])?,
             None => publisher.publish_slice(&header, &[])?,
         };
+        ctx.made(id);
         let history = structure.previous_axes().copied();
         state.write(CHECKPOINT, &(id, history), &mut scratch)?;
         done = Some(id);

@@ -43,6 +43,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             *slot = WireKeyPoint::new(kp, d);
         }
         publisher.send(out)?;
+        ctx.made(header.frame_id);
     }
     Ok(())
 }

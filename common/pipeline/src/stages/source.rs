@@ -49,7 +49,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     );
     let mut reader = sequence.frames_from(start, Some(total), DEFAULT_READ_AHEAD);
     let clock = Instant::now();
-    let mut first_timestamp = None;
+    let mut playback = Playback::default();
     for index in start..total {
         if ctx.stopping() {
             return Ok(());
@@ -64,10 +64,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                 .unwrap_or_default(),
         };
         if ctx.mode() == Mode::Realtime {
-            let first = *first_timestamp.get_or_insert(timestamp);
             let due = match ctx.settings.max_rate {
                 Some(rate) if rate > 0.0 => (index - start) as f64 / rate,
-                _ => timestamp - first,
+                _ => playback.due(index, timestamp),
             };
             pace(ctx, clock, due);
         }
@@ -102,6 +101,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             Ok(())
         };
         publish()?;
+        ctx.made(index as u64);
         match ctx.mode() {
             Mode::Lockstep => {
                 if !await_pose(ctx, &publisher, &poses, index as u64, &publish)? {
@@ -120,6 +120,40 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         std::thread::sleep(POLL * 25);
     }
     Ok(())
+}
+
+/// Longest pause between two frames when playing at the capture times: a jump in the
+/// timestamps (a gap in the recording, a bad clock) costs at most this, not the jump.
+const MAX_GAP_S: f64 = 1.0;
+
+/// When each frame is due, playing at the capture times with gaps capped.
+#[derive(Default)]
+struct Playback {
+    due: f64,
+    last: Option<f64>,
+}
+
+impl Playback {
+    /// Seconds after the first frame at which frame `index`, captured at `timestamp`, is
+    /// due: the capture interval since the previous frame, within `[0, MAX_GAP_S]`.
+    fn due(&mut self, index: usize, timestamp: f64) -> f64 {
+        if let Some(last) = self.last {
+            let gap = timestamp - last;
+            if !(0.0..=MAX_GAP_S).contains(&gap) {
+                tracing::warn!(
+                    frame = index,
+                    "source: the timestamps jump by {gap:.3} s; playing on after {MAX_GAP_S} s at most"
+                );
+            }
+            self.due += if gap.is_finite() {
+                gap.clamp(0.0, MAX_GAP_S)
+            } else {
+                MAX_GAP_S
+            };
+        }
+        self.last = Some(timestamp);
+        self.due
+    }
 }
 
 /// Sleeps until `due` seconds after `clock` (or until told to stop).
@@ -164,5 +198,21 @@ fn await_pose<S: Service>(
             publish()?;
             since = Instant::now();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_timestamp_jump_costs_at_most_the_gap_cap() {
+        let mut p = Playback::default();
+        let due: Vec<f64> = [10.0, 10.5, 1e6, 1e6 + 0.25, 5.0, f64::NAN]
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| p.due(i, t))
+            .collect();
+        assert_eq!(due, [0.0, 0.5, 1.5, 1.75, 1.75, 2.75]);
     }
 }

@@ -92,11 +92,18 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         mark_ready(&mut header, Stage::Tracker, 0);
         header.mark_started(Stage::Tracker);
         let (id, timestamp) = (features.id, features.timestamp);
-        let (mut pose, request) = match session.process(features) {
-            Ok(out) => (out.pose, out.keyframe),
-            Err(e) => {
-                tracing::warn!("tracker: {e}; the pose is predicted");
-                (session.skip(id, timestamp), None)
+        let (mut pose, request) = if features.is_blank() {
+            (session.skip(id, timestamp), None)
+        } else if let Err(e) = features.check() {
+            tracing::warn!("tracker: inconsistent features: {e}; the pose is predicted");
+            (session.skip(id, timestamp), None)
+        } else {
+            match session.process(features) {
+                Ok(out) => (out.pose, out.keyframe),
+                Err(e) => {
+                    tracing::warn!("tracker: {e}; the pose is predicted");
+                    (session.skip(id, timestamp), None)
+                }
             }
         };
         if incomplete && pose.status == TrackingStatus::Tracked {
@@ -109,6 +116,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                 tracing::error!(frame = %id, "tracker: cannot encode the keyframe: {e}");
             } else {
                 ports.keyframes.publish_slice(&header, &bytes)?;
+                ctx.requested(id.0);
                 outstanding = Some(Outstanding {
                     header,
                     bytes,
@@ -131,6 +139,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         let predicted = session.predicted_quaternion();
         let wire = WirePose::new(&pose, predicted.as_ref(), keyframe);
         ports.poses.publish_slice(&header, &[wire])?;
+        ctx.made(id.0);
         state.write(CHECKPOINT, &session.checkpoint(), &mut scratch)?;
         next_frame = id.0 + 1;
         join.drop_before(next_frame);
@@ -143,6 +152,10 @@ fn resume(state: &StateDir, session: &mut TrackingSession) -> Result<u64, StageE
     let Some(checkpoint) = state.read::<TrackingCheckpoint>(CHECKPOINT)? else {
         return Ok(0);
     };
+    if let Some(Err(e)) = checkpoint.last.as_ref().map(|l| l.check()) {
+        tracing::warn!("tracker: {CHECKPOINT} is inconsistent ({e}); starting afresh");
+        return Ok(0);
+    }
     let mut maps = saved_maps(state).unwrap_or_else(|e| {
         tracing::warn!("tracker: {e}; starting a new map");
         Vec::new()
@@ -192,6 +205,10 @@ fn take_maps<S: Service>(
     while let Some((header, update)) =
         maps.receive_decoded::<MapUpdate>(MAX_VARIABLE_MESSAGE_BYTES)?
     {
+        if let Err(e) = update.check() {
+            tracing::warn!("tracker: dropping an inconsistent map: {e}");
+            continue;
+        }
         let answers = session
             .pending_request()
             .is_some_and(|(seq, _)| seq == update.seq);

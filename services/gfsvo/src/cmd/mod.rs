@@ -1,5 +1,6 @@
 //! Subcommands other than the benchmarks.
 
+pub mod clean;
 pub mod eval;
 pub mod profile;
 pub mod record;

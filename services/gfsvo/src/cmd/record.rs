@@ -7,6 +7,7 @@ use crate::cmd::run::write_outputs;
 use crate::pipeline::{Recorder, signals};
 use gfs_ipc::{IpcRun, Mode, RunId, ipc};
 use gfs_odometry::FramePose;
+use iceoryx2::node::Node;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -30,7 +31,7 @@ pub struct RecordArgs {
 /// Records until interrupted.
 pub fn run(args: &RecordArgs) -> CliResult {
     signals::install();
-    std::fs::create_dir_all(&args.out)?;
+    let _out_lock = crate::cmd::run::checks::lock_out(&args.out)?;
     let mode = if args.mode == "lockstep" {
         Mode::Lockstep
     } else {
@@ -38,7 +39,17 @@ pub fn run(args: &RecordArgs) -> CliResult {
     };
     let run = IpcRun::new(RunId::new(&args.run_id)?)?;
     let node = run.node::<ipc::Service>("recorder")?;
-    let mut recorder = Recorder::new(&run, &node, mode, &args.mode)?;
+    let result = record(&run, &node, mode, args);
+    drop(node);
+    // The stages may still run (they are services): their files stay with them.
+    if let Err(e) = run.remove_if_unused() {
+        tracing::warn!("cleaning up after the recorder: {e}");
+    }
+    result
+}
+
+fn record(run: &IpcRun, node: &Node<ipc::Service>, mode: Mode, args: &RecordArgs) -> CliResult {
+    let mut recorder = Recorder::new(run, node, mode, &args.mode)?;
     tracing::info!(run = args.run_id, "recording poses until SIGINT / SIGTERM");
     let mut flushed = Instant::now();
     while !signals::interrupted() {

@@ -8,6 +8,11 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Instant;
 
+/// Widest image rendered (4K): the renderer holds a few full-size planes per frame.
+const MAX_WIDTH: usize = 4096;
+/// Longest sequence rendered: 10 minutes at 30 Hz.
+const MAX_FRAMES: usize = 18_000;
+
 /// Arguments of `gfsvo synth`.
 #[derive(Args)]
 #[command(after_help = "\
@@ -86,12 +91,15 @@ enum TrajArg {
 
 impl SynthArgs {
     fn config(&self) -> CliResult<SynthConfig> {
-        if self.width < 16 || !self.width.is_multiple_of(4) {
+        if !(16..=MAX_WIDTH).contains(&self.width) || !self.width.is_multiple_of(4) {
             return Err(format!(
-                "--width {} must be a multiple of 4, at least 16",
+                "--width {} must be a multiple of 4 in [16, {MAX_WIDTH}]",
                 self.width
             )
             .into());
+        }
+        if !(1..=MAX_FRAMES).contains(&self.frames) {
+            return Err(format!("--frames {} must be in [1, {MAX_FRAMES}]", self.frames).into());
         }
         if !(self.image_noise >= 0.0 && self.image_noise.is_finite()) {
             return Err(format!("--image-noise {} must be >= 0", self.image_noise).into());

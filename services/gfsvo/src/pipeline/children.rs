@@ -116,6 +116,14 @@ impl StageProcesses {
         Ok(dead.into_iter().map(|(s, _)| s).collect())
     }
 
+    /// Kills `stage` (SIGKILL: it also ends a stopped process); the next
+    /// [`Self::restart_dead`] restarts it.
+    pub fn kill(&mut self, stage: Stage) {
+        if let Some((_, child)) = self.children.iter_mut().find(|(s, _)| *s == stage) {
+            let _ = child.kill();
+        }
+    }
+
     /// Restarts per stage so far.
     pub fn restarts(&self) -> &RestartPolicy {
         &self.policy

@@ -7,6 +7,7 @@ mod recorder;
 mod restarts;
 pub mod signals;
 mod threads;
+mod watchdog;
 
 pub use recorder::{Recorder, complete_trajectory};
 
@@ -15,6 +16,7 @@ use children::StageProcesses;
 use gfs_ipc::profile::Profile;
 use gfs_ipc::{IpcRun, RunId, Service, Stage, ipc, local};
 use gfs_odometry::FramePose;
+use gfs_pipeline::progress::ProgressBoard;
 use gfs_pipeline::stages::StageSettings;
 use restarts::RestartPolicy;
 use std::collections::BTreeMap;
@@ -22,6 +24,7 @@ use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use threads::StageThreads;
+use watchdog::Watchdog;
 
 /// With no new pose for this long, the run is declared stalled.
 const STALL: Duration = Duration::from_secs(60);
@@ -75,7 +78,12 @@ pub struct PipelineOutcome {
 /// fails; every stage is stopped and the run's shared memory removed first.
 pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
     signals::install();
+    let swept = gfs_ipc::sweep_dead_runs();
+    for (id, files) in &swept.removed {
+        tracing::info!("removed {files} files left by dead run {id}");
+    }
     let run = IpcRun::new(options.run_id.clone())?;
+    let claim = run.claim()?;
     let policy = RestartPolicy::new(
         options.settings.config.pipeline.max_restarts,
         Duration::from_secs(options.settings.config.pipeline.restart_window_s),
@@ -92,8 +100,9 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
             StageThreads::start(options.run_id.clone(), options.settings.clone(), policy)?;
         let result = supervise(&run, recorder, options, |_| pool.restart_dead());
         pool.stop();
+        drop(node);
         let totals = Stage::ALL.map(|s| (s.name(), pool.restarts().total(s)));
-        finish(&run, result, totals)
+        finish(run.finish(), result, totals)
     } else {
         let node = run.node::<ipc::Service>("recorder")?;
         let recorder = Recorder::new(&run, &node, options.settings.mode, label)?;
@@ -101,6 +110,16 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
             .parent()
             .map(Path::to_path_buf)
             .unwrap_or_default();
+        let mut watchdog = options.settings.state_dir.as_deref().and_then(|dir| {
+            let timeout = options.settings.config.pipeline.hang_timeout_ms;
+            ProgressBoard::create(dir)
+                .map(|board| {
+                    let timeout = Duration::from_millis(timeout);
+                    Watchdog::new(board, timeout, options.total, options.settings.mode)
+                })
+                .map_err(|e| tracing::warn!("no hung-stage detection: {e}"))
+                .ok()
+        });
         let mut pool = StageProcesses::start(
             &dir,
             stage_args(options),
@@ -109,6 +128,14 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
         )?;
         write_pids(&options.out, &pool.pids());
         let result = supervise(&run, recorder, options, |run| {
+            for (stage, idle) in watchdog.as_mut().map(Watchdog::overdue).unwrap_or_default() {
+                tracing::warn!(
+                    stage = stage.name(),
+                    "stage published nothing for {:.1} s while its input waited; killing it as hung",
+                    idle.as_secs_f64()
+                );
+                pool.kill(stage);
+            }
             let restarted = pool.restart_dead(run)?;
             if !restarted.is_empty() {
                 write_pids(&options.out, &pool.pids());
@@ -116,12 +143,13 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
             Ok(restarted)
         });
         pool.stop(STOP_GRACE);
-        if let Err(e) = run.cleanup_dead_nodes::<ipc::Service>() {
-            tracing::warn!("cleaning up the run: {e}");
-        }
         drop(node);
+        let leftovers = claim.clean_up().unwrap_or_else(|e| {
+            tracing::warn!("cleaning up the run: {e}");
+            run.leftovers()
+        });
         let totals = Stage::ALL.map(|s| (s.name(), pool.restarts().total(s)));
-        finish(&run, result, totals)
+        finish(leftovers, result, totals)
     }
 }
 
@@ -168,11 +196,10 @@ fn supervise<S: Service>(
 }
 
 fn finish(
-    run: &IpcRun,
+    leftovers: Vec<PathBuf>,
     result: Supervised,
     totals: [(&'static str, u32); Stage::COUNT],
 ) -> CliResult<PipelineOutcome> {
-    let leftovers = run.finish();
     if !leftovers.is_empty() {
         tracing::warn!("files of the run left behind: {leftovers:?}");
     }
@@ -194,29 +221,33 @@ fn mode_name(options: &PipelineOptions) -> &'static str {
     }
 }
 
-/// The command line of every stage process.
+/// The command line of every stage process. Every value is joined to its flag
+/// (`--dataset=-x`), so that a path or id starting with `-` is not taken for a flag.
 fn stage_args(options: &PipelineOptions) -> Vec<OsString> {
     let s = &options.settings;
-    let mut args: Vec<OsString> = vec![
-        "--dataset".into(),
-        s.dataset.clone().into(),
-        "--run-id".into(),
-        options.run_id.as_str().into(),
-        "--mode".into(),
-        mode_name(options).into(),
-        "--log".into(),
-        options.log.clone().into(),
-    ];
-    let mut push = |flag: &str, value: Option<OsString>| {
-        if let Some(v) = value {
-            args.push(flag.into());
-            args.push(v);
-        }
+    let flag = |name: &str, value: &std::ffi::OsStr| {
+        let mut arg = OsString::from(format!("--{name}="));
+        arg.push(value);
+        arg
     };
-    push("--config", options.config_path.clone().map(Into::into));
-    push("--state-dir", s.state_dir.clone().map(Into::into));
-    push("--frames", s.frames.map(|n| n.to_string().into()));
-    push("--max-rate", s.max_rate.map(|r| r.to_string().into()));
+    let mut args: Vec<OsString> = vec![
+        flag("dataset", s.dataset.as_os_str()),
+        flag("run-id", options.run_id.as_str().as_ref()),
+        flag("mode", mode_name(options).as_ref()),
+        flag("log", options.log.as_ref()),
+    ];
+    if let Some(path) = &options.config_path {
+        args.push(flag("config", path.as_os_str()));
+    }
+    if let Some(dir) = &s.state_dir {
+        args.push(flag("state-dir", dir.as_os_str()));
+    }
+    if let Some(n) = s.frames {
+        args.push(flag("frames", n.to_string().as_ref()));
+    }
+    if let Some(rate) = s.max_rate {
+        args.push(flag("max-rate", rate.to_string().as_ref()));
+    }
     if options.no_lines {
         args.push("--no-lines".into());
     }

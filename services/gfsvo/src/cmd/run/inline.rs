@@ -4,6 +4,8 @@
 use crate::CliResult;
 use crate::bench::stats::Summary;
 use crate::config::Config;
+use gfs_core::Image;
+use gfs_core::ids::FrameId;
 use gfs_dataset::Sequence;
 use gfs_odometry::{FramePose, Frontend, Odometry, OdometryConfig};
 use indicatif::ProgressBar;
@@ -17,6 +19,8 @@ pub struct InlineOutcome {
     pub timings: BTreeMap<&'static str, Summary>,
     /// Keyframes in the map at the end.
     pub keyframes: usize,
+    /// True when SIGINT / SIGTERM stopped the run: `poses` holds the frames done.
+    pub interrupted: bool,
 }
 
 /// Runs the first `total` frames of `sequence`.
@@ -50,21 +54,27 @@ pub fn run(
     );
     let mut times = StageTimes::default();
     let mut poses = Vec::with_capacity(total);
+    let mut interrupted = false;
+    let (width, height) = (pinhole.width, pinhole.height);
+    let blank = (
+        Image::<u8>::new(width, height),
+        Image::<f32>::new(width, height),
+    );
     for (index, frame) in sequence.frames(Some(total)).enumerate() {
-        let pose = match frame {
-            Ok(frame) => {
-                let rotation = odometry.predicted_rotation();
-                let features = frontend.extract(
-                    frame.id,
-                    frame.timestamp,
-                    frame.gray.view(),
-                    frame.depth.view(),
-                    rotation.as_ref(),
-                )?;
-                let pose = odometry.process(features)?;
-                times.record(&frontend, &odometry);
-                pose
-            }
+        if crate::pipeline::signals::interrupted() {
+            interrupted = true;
+            break;
+        }
+        // One policy in every mode: an unreadable frame goes through the front end as a
+        // blank frame (as the pipeline's source publishes it), and a frame with no
+        // feature gets the motion-model prediction.
+        let (id, timestamp, gray, depth) = match &frame {
+            Ok(frame) => (
+                frame.id,
+                frame.timestamp,
+                frame.gray.view(),
+                frame.depth.view(),
+            ),
             Err(e) => {
                 tracing::warn!("frame {index}: {e}; its pose is predicted");
                 let timestamp = sequence
@@ -72,9 +82,22 @@ pub fn run(
                     .get(index)
                     .copied()
                     .unwrap_or_default();
-                odometry.skip(gfs_core::ids::FrameId(index as u64), timestamp)
+                (
+                    FrameId(index as u64),
+                    timestamp,
+                    blank.0.view(),
+                    blank.1.view(),
+                )
             }
         };
+        let rotation = odometry.predicted_rotation();
+        let features = frontend.extract(id, timestamp, gray, depth, rotation.as_ref())?;
+        let pose = if features.is_blank() {
+            odometry.skip(id, timestamp)
+        } else {
+            odometry.process(features)?
+        };
+        times.record(&frontend, &odometry);
         poses.push(pose);
         progress.inc(1);
     }
@@ -82,6 +105,7 @@ pub fn run(
         poses,
         timings: times.summarise(),
         keyframes: odometry.map().keyframe_count(),
+        interrupted,
     })
 }
 

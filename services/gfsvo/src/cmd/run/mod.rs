@@ -4,6 +4,7 @@
 //! (`inline`). Writes `trajectory.txt`, `status.txt` and (pipeline) `profile.json`,
 //! prints the ATE when ground truth exists and the time per stage.
 
+pub mod checks;
 mod inline;
 
 use crate::CliResult;
@@ -78,6 +79,8 @@ enum Timings {
 
 /// Runs the odometry.
 pub fn run(args: &RunArgs, log: &str) -> CliResult {
+    checks::check_args(args)?;
+    pipeline::signals::install();
     let dataset = match &args.dataset {
         Some(dir) => dir.clone(),
         None => built_in_sequence(args.json)?,
@@ -87,7 +90,11 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     config.tracking.use_manhattan &= !args.no_manhattan;
     let camera = config.camera()?;
     let sequence = Sequence::open(&dataset, &camera, &config.depth)?;
-    std::fs::create_dir_all(&args.out)?;
+    let ground_truth = match sequence.ground_truth_path() {
+        Some(gt) => Some(Trajectory::read_tum(&gt)?),
+        None => None,
+    };
+    let _out_lock = checks::lock_out(&args.out)?;
     let total = args
         .frames
         .map_or(sequence.len(), |n| n.min(sequence.len()));
@@ -98,6 +105,10 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         let progress = progress_bar(total as u64, args.json);
         let outcome = inline::run(&config, config.odometry(), &sequence, total, &progress)?;
         progress.finish_and_clear();
+        if outcome.interrupted {
+            write_outputs(&args.out, &outcome.poses)?;
+            return Err(interrupted(outcome.poses.len(), total, &args.out));
+        }
         let timings = Timings::Inline(outcome.timings);
         let processed = outcome.poses.len();
         (outcome.poses, processed, timings, outcome.keyframes, None)
@@ -135,16 +146,19 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         };
         let outcome = pipeline::run(&options)?;
         outcome.profile.write_json(&args.out.join("profile.json"))?;
-        let poses = pipeline::complete_trajectory(&outcome.received, timestamps);
         if outcome.interrupted {
+            // Only the frames up to the last one with a pose: nothing after it was seen.
+            let seen = outcome
+                .received
+                .keys()
+                .next_back()
+                .map_or(0, |&k| k as usize + 1);
+            let poses =
+                pipeline::complete_trajectory(&outcome.received, &timestamps[..seen.min(total)]);
             write_outputs(&args.out, &poses)?;
-            return Err(format!(
-                "interrupted after {} of {total} frames; partial trajectory in {}",
-                outcome.received.len(),
-                args.out.display()
-            )
-            .into());
+            return Err(interrupted(poses.len(), total, &args.out));
         }
+        let poses = pipeline::complete_trajectory(&outcome.received, timestamps);
         let timings = Timings::Pipeline(outcome.profile.summary());
         if !outcome.leftovers.is_empty() {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
@@ -160,13 +174,10 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     };
 
     let wall_s = clock.elapsed().as_secs_f64();
-    let trajectory = write_outputs(&args.out, &poses)?;
-    let evaluation = match sequence.ground_truth_path() {
-        Some(gt) => Some(evaluate(
-            &Trajectory::read_tum(&gt)?,
-            &trajectory,
-            EVO_MAX_DIFF_S,
-        )?),
+    write_outputs(&args.out, &poses)?;
+    let estimated = checks::tracked_trajectory(&poses, &args.out)?;
+    let evaluation = match &ground_truth {
+        Some(gt) => Some(evaluate(gt, &estimated, EVO_MAX_DIFF_S)?),
         None => None,
     };
     let mut counts = BTreeMap::<&str, usize>::new();
@@ -213,16 +224,27 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     Ok(())
 }
 
+/// The error of a run stopped by SIGINT / SIGTERM after `done` of `total` frames.
+fn interrupted(done: usize, total: usize, out: &Path) -> crate::CliError {
+    format!(
+        "interrupted after {done} of {total} frames; the trajectory of those frames is in {}",
+        out.display()
+    )
+    .into()
+}
+
 /// Writes `trajectory.txt` (TUM) and `status.txt`; returns the trajectory.
 pub fn write_outputs(out: &Path, poses: &[FramePose]) -> CliResult<Trajectory> {
     let mut trajectory = Trajectory::new();
-    let mut status = std::io::BufWriter::new(std::fs::File::create(out.join("status.txt"))?);
-    writeln!(status, "# frame_id timestamp status")?;
+    let path = out.join("status.txt");
+    let named = |e: std::io::Error| format!("cannot write {}: {e}", path.display());
+    let mut status = std::io::BufWriter::new(std::fs::File::create(&path).map_err(named)?);
+    writeln!(status, "# frame_id timestamp status").map_err(named)?;
     for pose in poses {
         trajectory.push(pose.timestamp, pose.world_from_camera);
-        writeln!(status, "{} {:.6} {}", pose.id, pose.timestamp, pose.status)?;
+        writeln!(status, "{} {:.6} {}", pose.id, pose.timestamp, pose.status).map_err(named)?;
     }
-    status.flush()?;
+    status.flush().map_err(named)?;
     trajectory.write_tum(&out.join("trajectory.txt"))?;
     Ok(trajectory)
 }

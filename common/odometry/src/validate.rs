@@ -1,0 +1,182 @@
+//! Range and relation checks of the odometry's config tables (`[tracking]`,
+//! `[keyframes]`, `[mapping]`, `[mapping.ba]`), run when a config is read, so that a
+//! value that would make every frame fail is an error naming its field.
+
+use crate::config::{KeyframeConfig, MappingConfig, OdometryConfig, TrackingConfig};
+use crate::frame::FrameFeatures;
+use gfs_core::fields::{FieldError, Table};
+use gfs_optim::BaConfig;
+
+/// Hamming distances are of 256-bit descriptors.
+const DESCRIPTOR_BITS: u64 = 256;
+
+impl OdometryConfig {
+    /// Checks every table.
+    ///
+    /// # Errors
+    /// [`FieldError`] naming the first field out of range.
+    pub fn validate(&self) -> Result<(), FieldError> {
+        self.tracking.validate()?;
+        self.keyframes.validate()?;
+        self.mapping.validate()
+    }
+}
+
+impl FrameFeatures {
+    /// True when the frame has no point and no line: its images were unreadable (the
+    /// pipeline's source publishes a blank frame for them) or show nothing. Every mode
+    /// gives such a frame the motion-model prediction without trying to track it.
+    pub fn is_blank(&self) -> bool {
+        self.keypoints.is_empty() && self.lines.is_empty()
+    }
+}
+
+impl TrackingConfig {
+    /// Checks `[tracking]` and its `points` / `lines` sub-tables.
+    ///
+    /// # Errors
+    /// [`FieldError`] naming the first field out of range.
+    pub fn validate(&self) -> Result<(), FieldError> {
+        let t = Table("tracking");
+        t.at_least("min_inliers", self.min_inliers as u64, 3)?;
+        t.require(
+            "degraded_inliers",
+            self.degraded_inliers,
+            self.degraded_inliers >= self.min_inliers,
+            "at least tracking.min_inliers",
+        )?;
+        t.at_least("local_keyframes", self.local_keyframes as u64, 1)?;
+        t.at_least(
+            "frames_before_new_map",
+            self.frames_before_new_map.into(),
+            1,
+        )?;
+        t.at_least("min_initial_points", self.min_initial_points as u64, 3)?;
+        t.positive("close_depth_m", self.close_depth_m.into())?;
+        let p = Table("tracking.points");
+        p.within("max_distance", self.points.max_distance.into(), 0.0, 256.0)?;
+        p.fraction("ratio", self.points.ratio.into())?;
+        p.positive("radius_last_frame", self.points.radius_last_frame)?;
+        p.positive("radius_local_map", self.points.radius_local_map)?;
+        let l = Table("tracking.lines");
+        l.require(
+            "max_distance",
+            self.lines.max_distance,
+            u64::from(self.lines.max_distance) <= DESCRIPTOR_BITS,
+            "in [0, 256]",
+        )?;
+        l.fraction("ratio", self.lines.ratio.into())?;
+        l.within("max_angle_deg", self.lines.max_angle_deg.into(), 0.0, 90.0)?;
+        l.positive("max_offset_px", self.lines.max_offset_px.into())
+    }
+}
+
+impl KeyframeConfig {
+    /// Checks `[keyframes]`.
+    ///
+    /// # Errors
+    /// [`FieldError`] naming the first field out of range.
+    pub fn validate(&self) -> Result<(), FieldError> {
+        let t = Table("keyframes");
+        t.at_least("max_frames", self.max_frames.into(), 1)?;
+        t.fraction("point_ratio", self.point_ratio.into())?;
+        t.fraction("line_ratio", self.line_ratio.into())?;
+        t.fraction(
+            "redundant_point_fraction",
+            self.redundant_point_fraction.into(),
+        )?;
+        t.fraction(
+            "redundant_line_fraction",
+            self.redundant_line_fraction.into(),
+        )?;
+        t.at_least("redundant_observers", self.redundant_observers as u64, 1)?;
+        t.at_least("max_keyframes", self.max_keyframes as u64, 2)
+    }
+}
+
+impl MappingConfig {
+    /// Checks `[mapping]` and `[mapping.ba]`.
+    ///
+    /// # Errors
+    /// [`FieldError`] naming the first field out of range.
+    pub fn validate(&self) -> Result<(), FieldError> {
+        let t = Table("mapping");
+        t.at_least("ba_keyframes", self.ba_keyframes as u64, 1)?;
+        t.within("structural_angle_deg", self.structural_angle_deg, 0.0, 45.0)?;
+        t.within("manhattan_angle_deg", self.manhattan_angle_deg, 0.0, 45.0)?;
+        t.require(
+            "fuse_max_distance",
+            self.fuse_max_distance,
+            u64::from(self.fuse_max_distance) <= DESCRIPTOR_BITS,
+            "in [0, 256]",
+        )?;
+        validate_ba(&self.ba)
+    }
+}
+
+fn validate_ba(ba: &BaConfig) -> Result<(), FieldError> {
+    let t = Table("mapping.ba");
+    t.within(
+        "first_pass_iterations",
+        ba.first_pass_iterations as f64,
+        0.0,
+        1000.0,
+    )?;
+    t.within(
+        "second_pass_iterations",
+        ba.second_pass_iterations as f64,
+        0.0,
+        1000.0,
+    )?;
+    for (name, value) in [
+        ("point_chi2", ba.point_chi2),
+        ("point_depth_chi2", ba.point_depth_chi2),
+        ("bf", ba.bf),
+        ("inverse_depth_sigma", ba.inverse_depth_sigma),
+        ("line_chi2", ba.line_chi2),
+        ("parallel_chi2", ba.parallel_chi2),
+        ("perpendicular_chi2", ba.perpendicular_chi2),
+        ("manhattan_chi2", ba.manhattan_chi2),
+    ] {
+        t.positive(name, value)?;
+    }
+    for (name, value) in [
+        ("parallel_weight", ba.parallel_weight),
+        ("perpendicular_weight", ba.perpendicular_weight),
+        ("manhattan_weight", ba.manhattan_weight),
+    ] {
+        t.require(
+            name,
+            value,
+            value.is_finite() && value >= 0.0,
+            "finite, >= 0",
+        )?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_bad_values_name_their_field() {
+        assert_eq!(OdometryConfig::default().validate(), Ok(()));
+        let mut c = OdometryConfig::default();
+        c.tracking.degraded_inliers = c.tracking.min_inliers - 1;
+        let e = c.validate().unwrap_err();
+        assert_eq!(e.field, "tracking.degraded_inliers");
+        let mut c = OdometryConfig::default();
+        c.keyframes.point_ratio = 0.0;
+        assert_eq!(c.validate().unwrap_err().field, "keyframes.point_ratio");
+        let mut c = OdometryConfig::default();
+        c.mapping.ba.inverse_depth_sigma = f64::NAN;
+        assert_eq!(
+            c.validate().unwrap_err().field,
+            "mapping.ba.inverse_depth_sigma"
+        );
+        let mut c = OdometryConfig::default();
+        c.tracking.lines.ratio = 1.5;
+        assert_eq!(c.validate().unwrap_err().field, "tracking.lines.ratio");
+    }
+}

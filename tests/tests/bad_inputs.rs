@@ -1,0 +1,283 @@
+//! A clear answer to every bad input, before any work where it can be known: nonsense
+//! arguments and config values, a garbage ground-truth line, dataset paths and run ids
+//! that start with `-`, unreadable images (one policy in every mode: the same
+//! trajectory inline and in the pipeline), a run whose frames are all unusable, and
+//! SIGINT during an inline run (the outputs hold the frames done, nothing more).
+
+mod common;
+
+use common::{assert_nothing_left, binaries, gfsvo, out_dir, run_id};
+use gfs_synth::{SynthConfig, SynthSequence};
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::sync::OnceLock;
+
+const FRAMES: usize = 40;
+
+/// A small synthetic sequence (40 frames, 320x240), rendered once.
+fn small() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("synth_small_40");
+        if !dir.join("associations.txt").is_file() {
+            let config = SynthConfig {
+                frames: FRAMES,
+                camera: SynthConfig::scaled_camera(320),
+                ..SynthConfig::default()
+            };
+            SynthSequence::new(config).write_tum(&dir, |_| ()).unwrap();
+        }
+        dir
+    })
+}
+
+/// A copy of the small sequence at `dir`, for a test to break.
+fn copy_of_small(dir: &Path) -> PathBuf {
+    let _ = std::fs::remove_dir_all(dir);
+    let status = Command::new("cp")
+        .arg("-r")
+        .arg(small())
+        .arg(dir)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    dir.to_path_buf()
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+fn expect_error(o: &Output, needles: &[&str]) {
+    let stderr = text(&o.stderr);
+    assert!(!o.status.success(), "should fail: {stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "{n:?} not in: {stderr}");
+    }
+}
+
+#[test]
+fn nonsense_arguments_are_refused_naming_the_value() {
+    let seq = small().to_str().unwrap();
+    let out = out_dir("args");
+    let out_s = out.to_str().unwrap();
+    expect_error(
+        &gfsvo(&["synth", "--width", "100000", "--out", out_s]),
+        &["--width 100000", "4096"],
+    );
+    expect_error(
+        &gfsvo(&["--log", "nonsense", "run", seq, "--out", out_s]),
+        &["--log \"nonsense\"", "expected a level"],
+    );
+    for rate in ["0", "nan", "-3"] {
+        expect_error(
+            &gfsvo(&[
+                "run",
+                seq,
+                "--mode",
+                "realtime",
+                &format!("--max-rate={rate}"),
+                "--out",
+                out_s,
+            ]),
+            &["--max-rate"],
+        );
+    }
+    let file = out_dir("args_file");
+    let _ = std::fs::remove_dir_all(&file);
+    std::fs::write(&file, "not a folder").unwrap();
+    expect_error(
+        &gfsvo(&["run", seq, "--out", file.to_str().unwrap()]),
+        &[&format!("output folder {}", file.display())],
+    );
+    let config = out_dir("args_config.toml");
+    std::fs::write(
+        &config,
+        "[camera]\nfx=250.0\nfy=250.0\ncx=160.0\ncy=120.0\nwidth=320\nheight=240\n[depth]\nscale = 0.0\n",
+    )
+    .unwrap();
+    let o = gfsvo(&[
+        "run",
+        seq,
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out_s,
+    ]);
+    expect_error(&o, &["depth.scale = 0"]);
+    let stderr = text(&o.stderr);
+    assert!(
+        !stderr.contains('\u{1b}'),
+        "no colours off a terminal: {stderr:?}"
+    );
+    assert!(!out.join("trajectory.txt").exists(), "nothing ran");
+}
+
+#[test]
+fn a_garbage_ground_truth_line_fails_before_any_work() {
+    let dir = copy_of_small(&out_dir("gt_garbage_seq"));
+    let gt = dir.join("groundtruth.txt");
+    let mut lines: Vec<String> = std::fs::read_to_string(&gt)
+        .unwrap()
+        .lines()
+        .map(str::to_owned)
+        .collect();
+    lines.insert(7, "1000.2 garbage 0 0 0 0 0 1".to_owned());
+    std::fs::write(&gt, lines.join("\n")).unwrap();
+    let out = out_dir("gt_garbage");
+    let _ = std::fs::remove_dir_all(&out);
+    let o = gfsvo(&["run", dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    expect_error(&o, &["groundtruth.txt", "8"]);
+    assert!(!out.join("trajectory.txt").exists(), "no work was done");
+}
+
+#[test]
+fn dash_leading_dataset_and_run_id_reach_every_stage() {
+    let parent = out_dir("dash");
+    std::fs::create_dir_all(&parent).unwrap();
+    copy_of_small(&parent.join("-seq"));
+    let id = format!("-{}", run_id("dash"));
+    let o = Command::new(binaries().join("gfsvo"))
+        .current_dir(&parent)
+        .args(["run", "--frames", "10", "--out", "out", "--json"])
+        .arg(format!("--run-id={id}"))
+        .args(["--", "-seq"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let lines = std::fs::read_to_string(parent.join("out/trajectory.txt")).unwrap();
+    assert_eq!(lines.lines().filter(|l| !l.starts_with('#')).count(), 10);
+    assert_nothing_left(&id);
+}
+
+/// Breaks frames 5 (truncated colour), 12 (empty depth), 20 (missing colour) and 27
+/// (colour cut to a few bytes) of a copy of the small sequence.
+fn broken_sequence() -> PathBuf {
+    let dir = copy_of_small(&out_dir("broken_seq"));
+    let assoc = std::fs::read_to_string(dir.join("associations.txt")).unwrap();
+    let rows: Vec<Vec<&str>> = assoc
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.split_whitespace().collect())
+        .collect();
+    let rgb = |i: usize| dir.join(rows[i][1]);
+    let depth = |i: usize| dir.join(rows[i][3]);
+    let cut = |path: PathBuf, n: usize| {
+        let bytes = std::fs::read(&path).unwrap();
+        std::fs::write(&path, &bytes[..n.min(bytes.len())]).unwrap();
+    };
+    cut(rgb(5), 300);
+    cut(depth(12), 0);
+    std::fs::remove_file(rgb(20)).unwrap();
+    cut(rgb(27), 40);
+    dir
+}
+
+#[test]
+fn unreadable_frames_give_the_same_trajectory_in_every_mode() {
+    let dir = broken_sequence();
+    let trajectory = |mode: &str| {
+        let (id, out) = (
+            run_id(&format!("brk{}", &mode[..3])),
+            out_dir(&format!("broken_{mode}")),
+        );
+        let _ = std::fs::remove_dir_all(&out);
+        let o = gfsvo(&[
+            "run",
+            dir.to_str().unwrap(),
+            "--mode",
+            mode,
+            "--run-id",
+            &id,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{mode}: {}", text(&o.stderr));
+        assert_nothing_left(&id);
+        let status = std::fs::read_to_string(out.join("status.txt")).unwrap();
+        let predicted: Vec<usize> = status
+            .lines()
+            .filter(|l| l.ends_with("predicted"))
+            .filter_map(|l| l.split_whitespace().next()?.parse().ok())
+            .collect();
+        assert_eq!(predicted, [5, 12, 20, 27], "{mode}");
+        std::fs::read_to_string(out.join("trajectory.txt")).unwrap()
+    };
+    let inline = trajectory("inline");
+    assert_eq!(
+        inline.lines().filter(|l| !l.starts_with('#')).count(),
+        FRAMES
+    );
+    assert_eq!(trajectory("lockstep"), inline);
+}
+
+#[test]
+fn a_run_with_no_usable_frame_fails_and_says_why() {
+    let dir = copy_of_small(&out_dir("unusable_seq"));
+    for entry in std::fs::read_dir(dir.join("rgb")).unwrap().flatten() {
+        std::fs::write(entry.path(), b"").unwrap();
+    }
+    for mode in ["inline", "lockstep"] {
+        let out = out_dir(&format!("unusable_{mode}"));
+        let _ = std::fs::remove_dir_all(&out);
+        let o = gfsvo(&[
+            "run",
+            dir.to_str().unwrap(),
+            "--frames",
+            "8",
+            "--mode",
+            mode,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        expect_error(&o, &["no frame of 8 was tracked"]);
+        assert!(
+            !text(&o.stdout).contains("ATE"),
+            "{mode}: no ATE of guesses"
+        );
+    }
+}
+
+#[test]
+fn sigint_during_an_inline_run_writes_only_the_frames_done() {
+    let out = out_dir("sigint_inline");
+    let _ = std::fs::remove_dir_all(&out);
+    let mut child = Command::new(binaries().join("gfsvo"))
+        .args([
+            "--log",
+            "gfs_odometry=debug",
+            "run",
+            "--mode",
+            "inline",
+            "--out",
+        ])
+        .arg(&out)
+        .arg(common::sequence())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait for the odometry's debug lines of a few frames, then interrupt.
+    let mut stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut seen = 0;
+    let mut line = String::new();
+    while seen < 10 && stderr.read_line(&mut line).unwrap() > 0 {
+        seen += usize::from(line.contains("DEBUG"));
+        line.clear();
+    }
+    let pid = i32::try_from(child.id()).unwrap();
+    // SAFETY: kill(2) has no memory effects.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGINT) }, 0);
+    let mut rest = String::new();
+    let _ = std::io::Read::read_to_string(&mut stderr, &mut rest);
+    let status = child.wait().unwrap();
+    assert!(!status.success());
+    assert!(rest.contains("interrupted after"), "{rest}");
+    let trajectory = std::fs::read_to_string(out.join("trajectory.txt")).unwrap();
+    let poses = trajectory.lines().filter(|l| !l.starts_with('#')).count();
+    assert!(
+        poses > 0 && poses < common::FRAMES,
+        "{poses} poses after SIGINT"
+    );
+}
