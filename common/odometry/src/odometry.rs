@@ -85,22 +85,17 @@ impl Odometry {
         let start = Instant::now();
         let output = self.tracking.process(features)?;
         let tracked = start.elapsed();
-        let mut pose = output.pose;
         let mut mapping = None;
         if let Some(request) = output.keyframe {
             let mapping_start = Instant::now();
             let update = self.mapping.insert(request).to_owned();
-            // The local BA refined the keyframe's pose together with the map it moved:
-            // the frame takes that pose.
-            if let Some(refined) = self.tracking.apply(update) {
-                pose.world_from_camera = refined.inverse();
-            }
+            self.tracking.apply(update);
             mapping = Some(mapping_start.elapsed());
         }
         self.timings = OdometryTimings {
             tracking: tracked,
             mapping,
         };
-        Ok(pose)
+        Ok(output.pose)
     }
 }

@@ -162,15 +162,6 @@ impl Tracker {
         self.last = Some(last);
     }
 
-    /// Replaces the last frame's pose by a refined one (its keyframe's after the local
-    /// BA), keeping the motion model's velocity.
-    pub fn correct_last_pose(&mut self, camera_from_world: Isometry3<f64>) {
-        self.motion.correct_last(&camera_from_world);
-        if let Some(last) = &mut self.last {
-            last.camera_from_world = camera_from_world;
-        }
-    }
-
     /// Tracks `features` against `map`. Never fails: an untracked frame gets the
     /// predicted pose and [`TrackingStatus::Predicted`].
     pub fn track(&mut self, map: &mut Map, mut features: FrameFeatures) -> TrackedFrame {

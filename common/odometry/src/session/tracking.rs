@@ -39,7 +39,7 @@ pub struct FramePose {
 /// A tracked frame's pose, and the keyframe request when it should become one.
 #[derive(Debug)]
 pub struct TrackOutput {
-    /// The pose (before local mapping refines it, when it becomes a keyframe).
+    /// The pose.
     pub pose: FramePose,
     /// Send this to the mapping half, then hand its answer to
     /// [`TrackingSession::apply`].
@@ -238,20 +238,18 @@ impl TrackingSession {
         Ok(TrackOutput { pose, keyframe })
     }
 
-    /// Takes in a map from the mapping half. When it answers the pending request, the
-    /// keyframe becomes the reference and its refined pose is returned
-    /// (`camera_from_world`); if that keyframe's frame was the last one tracked, the
-    /// motion model continues from the refined pose, as ORB-SLAM2 places its last frame
-    /// relative to its reference keyframe (`Tracking::UpdateLastFrame`).
+    /// Takes in a map from the mapping half; returns true when it answers the pending
+    /// request, whose keyframe then becomes the reference. The new keyframe is held
+    /// fixed in the local BA, so the frame keeps the pose it was tracked at.
     /// A map older than the one held, or newer than the requests made, is ignored (a
     /// restarted tracker receives the last few maps again).
-    pub fn apply(&mut self, update: MapUpdate) -> Option<Isometry3<f64>> {
+    pub fn apply(&mut self, update: MapUpdate) -> bool {
         let answers = self.pending.is_some_and(|(seq, _)| seq == update.seq);
         let stale = update.seq < self.map_seq || (update.seq == self.map_seq && !answers);
         // A map answering a request this tracker has not made (yet): a restarted
         // tracker makes that request again and takes the answer then.
         if stale || update.seq > self.last_request {
-            return None;
+            return false;
         }
         self.map_seq = update.seq;
         let (points, lines) = self.sightings.since(&self.map);
@@ -260,17 +258,15 @@ impl TrackingSession {
         self.sightings.reset(&self.map);
         apply_sightings(&mut self.map, &points, &lines);
         self.manhattan = update.manhattan;
-        let answered = self.pending.filter(|(seq, _)| *seq == update.seq);
-        let (_, frame) = answered?;
-        self.pending = None;
-        let kf = update.keyframe?;
-        self.tracker.set_reference(kf);
-        self.frames_since_keyframe = 0;
-        let refined = self.map.keyframe(kf)?.camera_from_world;
-        if self.tracker.last_frame().map(|l| l.features.id) == Some(frame) {
-            self.tracker.correct_last_pose(refined);
+        if !answers {
+            return false;
         }
-        Some(refined)
+        self.pending = None;
+        if let Some(kf) = update.keyframe {
+            self.tracker.set_reference(kf);
+            self.frames_since_keyframe = 0;
+        }
+        true
     }
 
     /// The state a restarted tracker resumes from (with a map from the mapper).
