@@ -16,15 +16,31 @@ const LINE_RULE_POINT_RATIO: f32 = 0.9;
 /// A keyframe needs at least this many tracked points to anchor the map (ORB-SLAM2: 15).
 const MIN_INLIERS_FOR_KEYFRAME: usize = 15;
 
+/// What the decision looks at besides the frame.
+#[derive(Clone, Copy, Debug)]
+pub struct KeyframeContext<'a> {
+    /// The map tracked against.
+    pub map: &'a Map,
+    /// The reference keyframe.
+    pub reference: Option<KeyFrameId>,
+    /// Frames tracked since the last keyframe.
+    pub frames_since_keyframe: u32,
+    /// Depth below which a keypoint is close (`[tracking] close_depth_m`).
+    pub close_depth_m: f32,
+}
+
 /// Decides whether `frame` should become a keyframe.
 pub fn needs_keyframe(
     config: &KeyframeConfig,
-    map: &Map,
+    context: &KeyframeContext<'_>,
     frame: &TrackedFrame,
-    reference: Option<KeyFrameId>,
-    frames_since_keyframe: u32,
-    close_depth_m: f32,
 ) -> bool {
+    let KeyframeContext {
+        map,
+        reference,
+        frames_since_keyframe,
+        close_depth_m,
+    } = *context;
     if !frame.status.is_tracked() {
         return false;
     }

@@ -3,9 +3,9 @@
 //! refines the covisible keyframes and their landmarks with reprojection, structural and
 //! Manhattan terms, and redundant keyframes are culled (on points **and** lines).
 
-use crate::config::{KeyframeConfig, MappingConfig};
+use crate::config::{KeyframeConfig, MappingConfig, OdometryConfig};
 use crate::frame::hamming;
-use crate::local_ba::LocalBundleAdjuster;
+use crate::local_ba::LocalMapBa;
 use crate::manhattan::WorldManhattan;
 use crate::map::{KeyFrame, Map, MapLine, MapPoint};
 use crate::matching::ScalePyramid;
@@ -32,6 +32,10 @@ const CHI2_3DOF: f64 = 7.815;
 const FUSE_GRID_CELL_PX: f32 = 10.0;
 /// Covisible keyframes whose points are fused into a new keyframe.
 const FUSE_NEIGHBOURS: usize = 10;
+/// A map line is judged on its found / visible ratio once this many frames predicted
+/// it in view (a recent line has been predicted too few times for the ratio to mean
+/// anything).
+const LINE_CULL_MIN_VISIBLE: u32 = 8;
 
 /// Owns the map-building steps; the map itself is passed in.
 pub struct Mapper {
@@ -40,34 +44,25 @@ pub struct Mapper {
     camera: PinholeCamera,
     scale: ScalePyramid,
     close_depth_m: f32,
-    use_lines: bool,
     recent_points: Vec<MapPointId>,
-    ba: LocalBundleAdjuster,
+    ba: LocalMapBa,
     grid: KeyPointGrid,
     nearby: Vec<usize>,
 }
 
 impl Mapper {
-    /// A mapper for `camera`.
-    pub fn new(
-        config: MappingConfig,
-        keyframes: KeyframeConfig,
-        camera: PinholeCamera,
-        scale: ScalePyramid,
-        close_depth_m: f32,
-        use_lines: bool,
-    ) -> Self {
+    /// A mapper for `camera` whose keypoints come from the pyramid `scale`.
+    pub fn new(config: &OdometryConfig, camera: PinholeCamera, scale: ScalePyramid) -> Self {
         Self {
-            ba: LocalBundleAdjuster::default(),
+            ba: LocalMapBa::new(config.mapping.clone(), camera, scale),
             recent_points: Vec::new(),
             grid: KeyPointGrid::new(camera.width, camera.height, FUSE_GRID_CELL_PX),
             nearby: Vec::new(),
-            config,
-            keyframes,
+            config: config.mapping.clone(),
+            keyframes: config.keyframes.clone(),
             camera,
             scale,
-            close_depth_m,
-            use_lines,
+            close_depth_m: config.tracking.close_depth_m,
         }
     }
 
@@ -94,11 +89,7 @@ impl Mapper {
             camera_from_world: frame.camera_from_world,
             features: frame.features.clone(),
             point_ids: frame.point_ids.clone(),
-            line_ids: if self.use_lines {
-                frame.line_ids.clone()
-            } else {
-                vec![None; frame.line_ids.len()]
-            },
+            line_ids: frame.line_ids.clone(),
         };
         let kf = map.insert_keyframe(keyframe);
         for id in frame.point_ids.iter().flatten() {
@@ -106,21 +97,11 @@ impl Mapper {
             map.update_point_geometry(*id, self.scale.scale_factor, self.scale.levels);
         }
         self.create_points(map, kf);
-        if self.use_lines {
-            self.create_lines(map, kf, manhattan);
-        }
+        self.create_lines(map, kf, manhattan);
         self.cull_recent_points(map, kf);
         self.fuse(map, kf);
         if self.config.local_ba {
-            self.ba.run(
-                map,
-                kf,
-                &self.camera,
-                &self.scale,
-                &self.config,
-                manhattan,
-                self.use_lines,
-            );
+            self.ba.run(map, kf, manhattan);
         }
         self.cull_keyframes(map, kf);
         self.bound_map(map, kf);
@@ -247,8 +228,9 @@ impl Mapper {
         let bad_lines: Vec<_> = map
             .line_ids()
             .filter(|id| {
-                map.line(*id)
-                    .is_some_and(|l| l.visible >= 8 && l.found_ratio() < MIN_FOUND_RATIO)
+                map.line(*id).is_some_and(|l| {
+                    l.visible >= LINE_CULL_MIN_VISIBLE && l.found_ratio() < MIN_FOUND_RATIO
+                })
             })
             .collect();
         for id in bad_lines {
@@ -384,8 +366,7 @@ impl Mapper {
             let points_redundant = points > 0
                 && redundant_points as f32
                     >= self.keyframes.redundant_point_fraction * points as f32;
-            let lines_redundant = !self.use_lines
-                || lines == 0
+            let lines_redundant = lines == 0
                 || redundant_lines as f32 >= self.keyframes.redundant_line_fraction * lines as f32;
             if points_redundant && lines_redundant {
                 map.remove_keyframe(kf);

@@ -4,12 +4,13 @@
 use crate::frame::FrameFeatures;
 use crate::map::Map;
 use crate::matching::ScalePyramid;
+use crate::observation::{KeypointMeasurement, LINE_INV_SIGMA2, observed_line};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{MapLineId, MapPointId};
 use gfs_optim::{
     LineObservation, PointObservation, PoseOptimizerConfig, PoseResult, optimize_pose,
 };
-use nalgebra::{Isometry3, Vector2, Vector3};
+use nalgebra::Isometry3;
 
 /// Inlier counts of a pose optimisation.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -27,10 +28,12 @@ impl Inliers {
     }
 }
 
-/// Reusable buffers of the pose optimisation.
-#[derive(Debug, Default)]
+/// The pose optimisation of a frame, with its reusable buffers.
+#[derive(Debug)]
 pub struct PoseSolver {
     config: PoseOptimizerConfig,
+    camera: PinholeCamera,
+    scale: ScalePyramid,
     points: Vec<PointObservation>,
     point_index: Vec<usize>,
     lines: Vec<LineObservation>,
@@ -39,19 +42,30 @@ pub struct PoseSolver {
 }
 
 impl PoseSolver {
+    /// A solver for `camera` whose keypoints come from the pyramid `scale`.
+    pub fn new(config: PoseOptimizerConfig, camera: PinholeCamera, scale: ScalePyramid) -> Self {
+        Self {
+            config,
+            camera,
+            scale,
+            points: Vec::new(),
+            point_index: Vec::new(),
+            lines: Vec::new(),
+            line_index: Vec::new(),
+            result: PoseResult::default(),
+        }
+    }
+
     /// Optimises `camera_from_world` from the matches in `point_ids` / `line_ids`; the
     /// outliers' entries are cleared. Every keypoint with a depth adds the RGB-D depth
     /// error, as ORB-SLAM2's pose optimisation uses the stereo error for every keypoint
     /// with a right coordinate (its inverse-depth form weighs far points little); without
     /// it, distant points leave the rotation-translation ambiguity of a narrow view open.
     /// Returns the inlier counts.
-    #[allow(clippy::too_many_arguments)]
     pub fn solve(
         &mut self,
         map: &Map,
         frame: &FrameFeatures,
-        camera: &PinholeCamera,
-        scale: &ScalePyramid,
         camera_from_world: &mut Isometry3<f64>,
         point_ids: &mut [Option<MapPointId>],
         line_ids: &mut [Option<MapLineId>],
@@ -63,11 +77,12 @@ impl PoseSolver {
             else {
                 continue;
             };
+            let m = KeypointMeasurement::new(kp, &self.scale);
             self.points.push(PointObservation {
                 point_in_world: point.position.coords,
-                uv: Vector2::new(f64::from(kp.u), f64::from(kp.v)),
-                inv_sigma2: scale.inv_sigma2(kp.level),
-                depth: f64::from(kp.depth),
+                uv: m.uv,
+                inv_sigma2: m.inv_sigma2,
+                depth: m.depth,
             });
             self.point_index.push(i);
         }
@@ -78,14 +93,13 @@ impl PoseSolver {
             else {
                 continue;
             };
-            let [a, b, c] = observed.segment.line_coefficients();
-            if a == 0.0 && b == 0.0 {
+            let Some(coeffs) = observed_line(observed) else {
                 continue;
-            }
+            };
             self.lines.push(LineObservation {
                 endpoints_in_world: [line.start.coords, line.end.coords],
-                coeffs: Vector3::new(f64::from(a), f64::from(b), f64::from(c)),
-                inv_sigma2: 1.0,
+                coeffs,
+                inv_sigma2: LINE_INV_SIGMA2,
             });
             self.line_index.push(j);
         }
@@ -93,7 +107,7 @@ impl PoseSolver {
             return Inliers::default();
         }
         optimize_pose(
-            camera,
+            &self.camera,
             camera_from_world,
             &self.points,
             &self.lines,

@@ -217,6 +217,13 @@ impl Map {
         }
     }
 
+    /// Removes every keyframe, and with them every landmark (a new local map starts).
+    pub fn clear_keyframes(&mut self) {
+        for kf in self.keyframe_ids() {
+            self.remove_keyframe(kf);
+        }
+    }
+
     /// Removes a keyframe; landmarks it alone observed go with it.
     pub fn remove_keyframe(&mut self, id: KeyFrameId) {
         let Some(kf) = self.keyframes.remove(&id) else {

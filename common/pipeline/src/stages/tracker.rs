@@ -139,7 +139,7 @@ fn resume(state: &StateDir, session: &mut TrackingSession) -> Result<u64, StageE
     // The map it tracked against, else the newest.
     let map = maps
         .iter()
-        .position(|m| m.seq == checkpoint.map_seq)
+        .position(|m| m.seq == checkpoint.requests.map_seq())
         .or((!maps.is_empty()).then_some(0))
         .map(|i| maps.swap_remove(i));
     let next = checkpoint.last.as_ref().map_or(0, |l| l.features.id.0 + 1);
