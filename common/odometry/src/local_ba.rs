@@ -106,7 +106,7 @@ impl LocalMapBa {
             .zip(&inliers.point_observations)
         {
             if !inlier {
-                map.remove_point_observation(self.point_ids[obs.point], self.pose_ids[obs.pose]);
+                map.unlink(self.point_ids[obs.point], self.pose_ids[obs.pose]);
             }
         }
         for (obs, inlier) in problem
@@ -115,7 +115,7 @@ impl LocalMapBa {
             .zip(&inliers.line_observations)
         {
             if !inlier {
-                map.remove_line_observation(self.line_ids[obs.line], self.pose_ids[obs.pose]);
+                map.unlink(self.line_ids[obs.line], self.pose_ids[obs.pose]);
             }
         }
         for id in &self.point_ids {

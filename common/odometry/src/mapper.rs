@@ -93,7 +93,7 @@ impl Mapper {
         };
         let kf = map.insert_keyframe(keyframe);
         for id in frame.point_ids.iter().flatten() {
-            map.update_point_descriptor(*id);
+            map.update_descriptor(*id);
             map.update_point_geometry(*id, self.scale.scale_factor, self.scale.levels);
         }
         self.create_points(map, kf);
@@ -156,7 +156,7 @@ impl Mapper {
             new_points.push((i, point));
         }
         for (i, point) in new_points {
-            if let Some(id) = map.insert_point(point, kf, i) {
+            if let Some(id) = map.insert_landmark(point, kf, i) {
                 self.recent_points.push(id);
             }
         }
@@ -194,7 +194,7 @@ impl Mapper {
                 visible: 1,
                 found: 1,
             };
-            map.insert_line(line, kf, j);
+            map.insert_landmark(line, kf, j);
         }
     }
 
@@ -219,7 +219,7 @@ impl Mapper {
                 || (age >= RECENT_POINT_KEYFRAMES
                     && observations <= RECENT_POINT_MAX_WEAK_OBSERVATIONS)
             {
-                map.remove_point(id);
+                map.remove_landmark(id);
             } else if age < RECENT_POINT_KEYFRAMES + 1 {
                 kept.push(id);
             }
@@ -234,7 +234,7 @@ impl Mapper {
             })
             .collect();
         for id in bad_lines {
-            map.remove_line(id);
+            map.remove_landmark(id);
         }
     }
 
@@ -318,15 +318,15 @@ impl Mapper {
             }
             match keyframe.point_ids[i] {
                 None => {
-                    map.add_point_observation(id, kf, i);
+                    map.link(id, kf, i);
                 }
                 Some(existing) if existing != id => {
                     let n_existing = map.point(existing).map_or(0, |p| p.observations.len());
                     let n_candidate = map.point(id).map_or(0, |p| p.observations.len());
                     if n_existing >= n_candidate {
-                        map.merge_points(id, existing);
+                        map.merge(id, existing);
                     } else {
-                        map.merge_points(existing, id);
+                        map.merge(existing, id);
                     }
                 }
                 Some(_) => {}

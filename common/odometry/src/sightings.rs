@@ -3,7 +3,7 @@
 //! tracker only reads the map, so it counts here, and the counts travel to the map's
 //! owner with the next keyframe request.
 
-use crate::map::{IdMap, Map};
+use crate::map::{IdMap, Landmark, LandmarkId, Map};
 use gfs_core::ids::{MapLineId, MapPointId};
 use serde::{Deserialize, Serialize};
 
@@ -70,17 +70,17 @@ impl Sightings {
     /// Adds the counts to the landmarks of `map` that still exist (the others were
     /// culled or merged since the tracker saw them).
     pub fn add_to(&self, map: &mut Map) {
-        for (id, c) in &self.points {
-            if let Some(p) = map.point_mut(*id) {
-                p.visible = p.visible.saturating_add(c.visible);
-                p.found = p.found.saturating_add(c.found);
-            }
-        }
-        for (id, c) in &self.lines {
-            if let Some(l) = map.line_mut(*id) {
-                l.visible = l.visible.saturating_add(c.visible);
-                l.found = l.found.saturating_add(c.found);
-            }
+        add_counts(map, &self.points);
+        add_counts(map, &self.lines);
+    }
+}
+
+fn add_counts<I: LandmarkId>(map: &mut Map, counts: &IdMap<I, SightingCount>) {
+    for (id, c) in counts {
+        if let Some(landmark) = map.landmark_mut(*id) {
+            let (visible, found) = landmark.sightings_mut();
+            *visible = visible.saturating_add(c.visible);
+            *found = found.saturating_add(c.found);
         }
     }
 }
