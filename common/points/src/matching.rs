@@ -1,15 +1,7 @@
 //! Descriptor distances and the best / second-best search the tracker's matchers use.
 
 use crate::keypoint::Descriptor;
-
-/// Hamming distance between two descriptors (0..=256).
-#[inline]
-pub fn hamming(a: &Descriptor, b: &Descriptor) -> u32 {
-    (a[0] ^ b[0]).count_ones()
-        + (a[1] ^ b[1]).count_ones()
-        + (a[2] ^ b[2]).count_ones()
-        + (a[3] ^ b[3]).count_ones()
-}
+pub use gfs_core::descriptor::hamming;
 
 /// The closest candidate to a query and the distance of the runner-up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -80,10 +72,6 @@ mod tests {
     fn distances_and_ratio() {
         let a = [0u64; 4];
         let b = [u64::MAX, 0, 1, 0b111];
-        assert_eq!(hamming(&a, &b), 68);
-        assert_eq!(hamming(&b, &b), 0);
-        assert_eq!(hamming(&a, &[u64::MAX; 4]), 256);
-
         let cands = [[0b1u64, 0, 0, 0], [0b1111, 0, 0, 0], [0b11, 0, 0, 0]];
         let m = best_two(&a, cands.iter().enumerate().map(|(i, d)| (i + 10, d))).unwrap();
         assert_eq!(
