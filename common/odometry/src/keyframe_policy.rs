@@ -89,3 +89,85 @@ pub fn needs_keyframe(
     (points_low || lines_low || need_close || timeout)
         && frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::OdometryConfig;
+    use crate::status::TrackingStatus;
+    use crate::testing::{Scene, first_keyframe, relinked};
+
+    /// A map of one keyframe (200 points, 20 lines) and that keyframe's frame seen
+    /// again, one frame later.
+    fn setup() -> (Map, KeyFrameId, TrackedFrame) {
+        let (map, _, kf) = first_keyframe(&Scene::new(200, 20), &OdometryConfig::default());
+        let frame = relinked(map.keyframe(kf).expect("keyframe"));
+        assert_eq!((frame.inliers.points, frame.inliers.lines), (200, 20));
+        (map, kf, frame)
+    }
+
+    fn decide(map: &Map, reference: Option<KeyFrameId>, frame: &TrackedFrame, since: u32) -> bool {
+        let context = KeyframeContext {
+            map,
+            reference,
+            frames_since_keyframe: since,
+            close_depth_m: 3.1,
+        };
+        needs_keyframe(&KeyframeConfig::default(), &context, frame)
+    }
+
+    #[test]
+    fn a_frame_that_sees_what_its_reference_saw_needs_no_keyframe() {
+        let (map, kf, frame) = setup();
+        assert!(!decide(&map, Some(kf), &frame, 1));
+    }
+
+    #[test]
+    fn without_a_reference_a_tracked_frame_becomes_one() {
+        let (map, _, mut frame) = setup();
+        assert!(decide(&map, None, &frame, 1));
+        frame.status = TrackingStatus::Predicted;
+        assert!(!decide(&map, None, &frame, 1), "an untracked frame never does");
+    }
+
+    #[test]
+    fn points_below_the_point_ratio_ask_for_a_keyframe() {
+        let (map, kf, mut frame) = setup();
+        // point_ratio 0.9 of the reference's 200 points: 180.
+        frame.inliers.points = 181;
+        assert!(!decide(&map, Some(kf), &frame, 1));
+        frame.inliers.points = 179;
+        assert!(decide(&map, Some(kf), &frame, 1));
+    }
+
+    #[test]
+    fn max_frames_after_the_last_keyframe_ask_for_one() {
+        let (map, kf, frame) = setup();
+        assert!(!decide(&map, Some(kf), &frame, 29));
+        assert!(decide(&map, Some(kf), &frame, 30));
+    }
+
+    #[test]
+    fn close_keypoints_the_map_does_not_cover_ask_for_a_keyframe() {
+        let (map, kf, mut frame) = setup();
+        // Unlink close keypoints until fewer than 100 close ones are tracked and more
+        // than 70 are not; the inlier count stays high.
+        let close: Vec<usize> = (0..frame.point_ids.len())
+            .filter(|&i| frame.features.keypoints[i].depth < 3.1)
+            .collect();
+        assert!(close.len() > 160, "{} close keypoints", close.len());
+        for &i in close.iter().take(close.len() - 90) {
+            frame.point_ids[i] = None;
+        }
+        assert!(decide(&map, Some(kf), &frame, 1));
+    }
+
+    #[test]
+    fn a_frame_with_too_few_points_never_becomes_a_keyframe() {
+        let (map, kf, mut frame) = setup();
+        frame.inliers.points = MIN_INLIERS_FOR_KEYFRAME;
+        assert!(!decide(&map, Some(kf), &frame, 30));
+        frame.inliers.points = MIN_INLIERS_FOR_KEYFRAME + 1;
+        assert!(decide(&map, Some(kf), &frame, 30));
+    }
+}

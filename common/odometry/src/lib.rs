@@ -42,6 +42,8 @@ mod rolling_shutter;
 pub mod session;
 mod sightings;
 mod status;
+#[cfg(test)]
+mod testing;
 mod tracker;
 
 pub use config::{KeyframeConfig, MappingConfig, OdometryConfig, TrackingConfig};
