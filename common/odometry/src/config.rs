@@ -101,8 +101,8 @@ pub struct KeyframeConfig {
     /// ORB-SLAM2, so it needs keyframes sooner).
     pub point_ratio: f32,
     /// New keyframe when tracked lines fall below this fraction of the reference
-    /// keyframe's (lines are less stable after homogenisation, so the threshold is
-    /// lower than for points). Default 0.5.
+    /// keyframe's, whatever the points do (lines are less stable after homogenisation,
+    /// so the threshold is lower than for points). Default 0.5.
     pub line_ratio: f32,
     /// A keyframe is redundant when this fraction of its points is seen by at least
     /// `redundant_observers` other keyframes... Default 0.9 (ORB-SLAM2).

@@ -1,6 +1,7 @@
 //! When a frame becomes a keyframe (paper "Keyframe Select and Filter", after ORB-SLAM2's
-//! `NeedNewKeyFrame` for RGB-D): when the tracked points **or** lines fall well below
-//! the reference keyframe's, or close structure is no longer covered by the map.
+//! `NeedNewKeyFrame` for RGB-D): when the tracked points **or** the tracked lines fall
+//! well below the reference keyframe's, each against its own threshold, when close
+//! structure is no longer covered by the map, or when the last keyframe is too old.
 
 use crate::config::KeyframeConfig;
 use crate::map::Map;
@@ -11,8 +12,9 @@ use gfs_core::ids::KeyFrameId;
 /// while more than 70 close ones are untracked asks for a keyframe).
 const CLOSE_TRACKED_MIN: usize = 100;
 const CLOSE_UNTRACKED_MAX: usize = 70;
-/// With the lines' ratio low, the points must be below this fraction of the reference's.
-const LINE_RULE_POINT_RATIO: f32 = 0.9;
+/// The line rule needs a reference keyframe with at least this many map lines: with
+/// fewer, losing a handful is noise, not a change of view.
+const MIN_REFERENCE_LINES: usize = 10;
 /// A keyframe needs at least this many tracked points to anchor the map (ORB-SLAM2: 15).
 const MIN_INLIERS_FOR_KEYFRAME: usize = 15;
 
@@ -80,11 +82,11 @@ pub fn needs_keyframe(
     let need_close = close_tracked < CLOSE_TRACKED_MIN && close_untracked > CLOSE_UNTRACKED_MAX;
     let points = frame.inliers.points as f32;
     let points_low = points < reference_points as f32 * config.point_ratio;
-    // Lines are less stable than points after homogenisation (paper "Keyframe Select and
-    // Filter"): a drop in lines asks for a keyframe only when the points dropped too.
-    let lines_low = reference_lines >= 10
-        && (frame.inliers.lines as f32) < reference_lines as f32 * config.line_ratio
-        && points < reference_points as f32 * LINE_RULE_POINT_RATIO;
+    // Lines are less stable than points after homogenisation, so their threshold is
+    // lower (paper "Keyframe Select and Filter"), but a drop below it asks for a
+    // keyframe on its own: the view moved to where the map's lines are not.
+    let lines_low = reference_lines >= MIN_REFERENCE_LINES
+        && (frame.inliers.lines as f32) < reference_lines as f32 * config.line_ratio;
     let timeout = frames_since_keyframe >= config.max_frames;
     (points_low || lines_low || need_close || timeout)
         && frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME
@@ -127,7 +129,10 @@ mod tests {
         let (map, _, mut frame) = setup();
         assert!(decide(&map, None, &frame, 1));
         frame.status = TrackingStatus::Predicted;
-        assert!(!decide(&map, None, &frame, 1), "an untracked frame never does");
+        assert!(
+            !decide(&map, None, &frame, 1),
+            "an untracked frame never does"
+        );
     }
 
     #[test]
@@ -138,6 +143,29 @@ mod tests {
         assert!(!decide(&map, Some(kf), &frame, 1));
         frame.inliers.points = 179;
         assert!(decide(&map, Some(kf), &frame, 1));
+    }
+
+    #[test]
+    fn lines_below_the_line_ratio_ask_for_a_keyframe_on_their_own() {
+        let (map, kf, mut frame) = setup();
+        // line_ratio 0.5 of the reference's 20 lines: 10; the points stay high.
+        frame.inliers.points = 195;
+        frame.inliers.lines = 10;
+        assert!(!decide(&map, Some(kf), &frame, 1));
+        frame.inliers.lines = 9;
+        assert!(decide(&map, Some(kf), &frame, 1));
+    }
+
+    #[test]
+    fn a_reference_with_few_lines_does_not_trigger_the_line_rule() {
+        let (map, _, kf, frame) = {
+            let (map, mapper, kf) = first_keyframe(&Scene::new(200, 9), &OdometryConfig::default());
+            let frame = relinked(map.keyframe(kf).expect("keyframe"));
+            (map, mapper, kf, frame)
+        };
+        let mut frame = frame;
+        frame.inliers.lines = 0;
+        assert!(!decide(&map, Some(kf), &frame, 1));
     }
 
     #[test]

@@ -96,7 +96,10 @@ impl Scene {
             .iter()
             .map(|p| {
                 let p_c = camera_from_world * p;
-                match camera.project(&p_c).filter(|uv| camera.contains(uv.x, uv.y, 0.0)) {
+                match camera
+                    .project(&p_c)
+                    .filter(|uv| camera.contains(uv.x, uv.y, 0.0))
+                {
                     Some(uv) => keypoint(uv.x as f32, uv.y as f32, p_c.z as f32),
                     None => keypoint(-100.0, -100.0, 0.0),
                 }
@@ -169,7 +172,10 @@ pub fn tracked(features: FrameFeatures, camera_from_world: Isometry3<f64>) -> Tr
 pub fn first_keyframe(scene: &Scene, config: &OdometryConfig) -> (Map, Mapper, KeyFrameId) {
     let mut map = Map::default();
     let mut mapper = Mapper::new(config, camera(), scale());
-    let frame = tracked(scene.features(0, &Isometry3::identity()), Isometry3::identity());
+    let frame = tracked(
+        scene.features(0, &Isometry3::identity()),
+        Isometry3::identity(),
+    );
     let kf = mapper.add_keyframe(&mut map, &frame, &mut WorldManhattan::new(false));
     (map, mapper, kf)
 }

@@ -8,6 +8,8 @@ mod keyframe;
 mod landmark;
 mod line;
 mod point;
+#[cfg(test)]
+mod tests;
 
 pub use arena::IdMap;
 pub use keyframe::KeyFrame;
