@@ -84,3 +84,57 @@ fn add_counts<I: LandmarkId>(map: &mut Map, counts: &IdMap<I, SightingCount>) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::OdometryConfig;
+    use crate::testing::{Scene, first_keyframe};
+
+    #[test]
+    fn counts_accumulate_and_reach_only_landmarks_that_still_exist() {
+        let (mut map, _, _) = first_keyframe(&Scene::new(10, 2), &OdometryConfig::default());
+        let points: Vec<MapPointId> = map.point_ids().collect();
+        let (a, b) = (points[0], points[1]);
+        let line = map.line_ids().next().expect("a line");
+        let mut sightings = Sightings::default();
+        assert!(sightings.is_empty());
+        sightings.points_visible(&[a, b, a]);
+        sightings.points_found([a].iter());
+        sightings.lines_visible(&[line]);
+        sightings.points_visible(&[MapPointId(999)]);
+        assert_eq!(
+            sightings.point(a),
+            SightingCount {
+                visible: 2,
+                found: 1
+            }
+        );
+        assert_eq!(
+            sightings.line(line),
+            SightingCount {
+                visible: 1,
+                found: 0
+            }
+        );
+        map.remove_landmark(b);
+        sightings.add_to(&mut map);
+        // New landmarks start at one sighting of each (their creating keyframe).
+        let p = map.point(a).expect("a");
+        assert_eq!((p.visible, p.found), (3, 2));
+        let l = map.line(line).expect("line");
+        assert_eq!((l.visible, l.found), (2, 1));
+        assert!(map.point(MapPointId(999)).is_none());
+    }
+
+    #[test]
+    fn counts_saturate_instead_of_wrapping() {
+        let (mut map, _, _) = first_keyframe(&Scene::new(4, 0), &OdometryConfig::default());
+        let a = map.point_ids().next().expect("a point");
+        map.point_mut(a).expect("a").visible = u32::MAX;
+        let mut sightings = Sightings::default();
+        sightings.points_visible(&[a]);
+        sightings.add_to(&mut map);
+        assert_eq!(map.point(a).expect("a").visible, u32::MAX);
+    }
+}

@@ -7,6 +7,8 @@
 mod mapping;
 mod messages;
 mod state;
+#[cfg(test)]
+mod tests;
 mod tracking;
 
 pub use mapping::MappingSession;

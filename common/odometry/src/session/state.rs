@@ -111,3 +111,74 @@ impl RequestLedger {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn requests_are_numbered_and_their_answer_clears_the_pending_one() {
+        let mut ledger = RequestLedger::default();
+        assert_eq!(ledger.open(FrameId(3)), 1);
+        assert_eq!(ledger.pending(), Some((1, FrameId(3))));
+        assert_eq!(ledger.receive(1), MapReceipt::Answer);
+        assert_eq!((ledger.pending(), ledger.map_seq()), (None, 1));
+        // The same map again (a restarted mapper resends it): nothing new.
+        assert_eq!(ledger.receive(1), MapReceipt::Ignored);
+    }
+
+    #[test]
+    fn old_maps_and_answers_to_requests_not_made_are_ignored() {
+        let mut ledger = RequestLedger::default();
+        ledger.open(FrameId(0));
+        ledger.receive(1);
+        ledger.open(FrameId(5));
+        assert_eq!(ledger.receive(3), MapReceipt::Ignored, "request 3 not made");
+        assert_eq!(
+            ledger.receive(0),
+            MapReceipt::Ignored,
+            "older than the map held"
+        );
+        assert_eq!(ledger.pending(), Some((2, FrameId(5))));
+        assert_eq!(ledger.receive(2), MapReceipt::Answer);
+    }
+
+    #[test]
+    fn a_newer_map_that_answers_nothing_pending_is_taken() {
+        let mut ledger = RequestLedger::default();
+        ledger.open(FrameId(0));
+        ledger.open(FrameId(4));
+        // Request 1's answer arrives after request 2 was made.
+        assert_eq!(ledger.receive(1), MapReceipt::Newer);
+        assert_eq!(ledger.pending(), Some((2, FrameId(4))));
+        assert_eq!(ledger.receive(2), MapReceipt::Answer);
+    }
+
+    #[test]
+    fn a_resumed_ledger_numbers_on_and_waits_for_nothing() {
+        let roundtrip = |ledger: &RequestLedger| {
+            let config = bincode::config::standard();
+            let bytes = bincode::serde::encode_to_vec(ledger, config).expect("encode");
+            let (decoded, _): (RequestLedger, usize) =
+                bincode::serde::decode_from_slice(&bytes, config).expect("decode");
+            decoded
+        };
+        // Killed while waiting for request 2 (lockstep): the checkpoint is the one of
+        // the frame before, so frame 7 is tracked again and asks with the same number.
+        let mut saved = RequestLedger::default();
+        saved.open(FrameId(0));
+        saved.receive(1);
+        let mut resumed = RequestLedger::default();
+        resumed.resume(&roundtrip(&saved), Some(1));
+        assert_eq!((resumed.last_sent(), resumed.map_seq()), (1, 1));
+        assert_eq!(resumed.open(FrameId(7)), 2);
+        // Killed after the checkpoint of frame 7 with request 2 unanswered (realtime):
+        // nothing is pending after the restart, and the answer is taken as a newer map.
+        saved.open(FrameId(7));
+        let decoded = roundtrip(&saved);
+        assert_eq!(decoded.pending(), None, "pending is not saved");
+        let mut resumed = RequestLedger::default();
+        resumed.resume(&decoded, Some(1));
+        assert_eq!(resumed.receive(2), MapReceipt::Newer);
+    }
+}
