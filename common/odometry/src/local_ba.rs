@@ -343,3 +343,58 @@ impl LocalMapBa {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::OdometryConfig;
+    use crate::mapper::Mapper;
+    use crate::testing::{Scene, camera, first_keyframe, pose, relinked, scale, tracked};
+
+    #[test]
+    fn a_lone_keyframe_has_nothing_to_adjust() {
+        let config = OdometryConfig::default();
+        let (map, _, kf) = first_keyframe(&Scene::new(50, 4), &config);
+        let mut ba = LocalMapBa::new(config.mapping.clone(), camera(), scale());
+        assert!(ba.assemble(&map, kf, &WorldManhattan::new(false)).is_none());
+    }
+
+    #[test]
+    fn the_problem_holds_the_new_keyframe_fixed_and_its_neighbours_free() {
+        let mut config = OdometryConfig::default();
+        config.mapping.local_ba = false;
+        let scene = Scene::new(100, 6);
+        let (mut map, mut mapper, first): (Map, Mapper, KeyFrameId) =
+            first_keyframe(&scene, &config);
+        let at = pose(0.02, 0.0);
+        let mut frame = tracked(scene.features(1, &at), at);
+        let again = relinked(map.keyframe(first).expect("first"));
+        frame.point_ids = again.point_ids;
+        frame.line_ids = again.line_ids;
+        let kf = mapper.add_keyframe(&mut map, &frame, &mut WorldManhattan::new(false));
+        let mut ba = LocalMapBa::new(config.mapping.clone(), camera(), scale());
+        let problem = ba
+            .assemble(&map, kf, &WorldManhattan::new(false))
+            .expect("two keyframes");
+        let fixed: Vec<bool> = problem.poses.iter().map(|p| p.fixed).collect();
+        assert_eq!(
+            fixed,
+            vec![true, false],
+            "the new keyframe, then its neighbour"
+        );
+        assert_eq!((problem.points.len(), problem.lines.len()), (100, 6));
+        // Every landmark is seen by both keyframes.
+        assert_eq!(problem.point_observations.len(), 200);
+        assert_eq!(problem.line_observations.len(), 12);
+        let depth = problem
+            .point_observations
+            .iter()
+            .filter(|o| o.depth > 0.0)
+            .count();
+        assert_eq!(depth, 200, "depth enters every observation that has one");
+        assert_eq!(problem.line_priors.len(), 6);
+        // Alternately vertical and horizontal segments: parallel and perpendicular pairs.
+        assert!(!problem.parallel.is_empty() && !problem.perpendicular.is_empty());
+        assert!(problem.manhattan.is_empty(), "no world axes known");
+    }
+}
