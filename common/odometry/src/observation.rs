@@ -44,3 +44,37 @@ pub fn observed_line(line: &DetectedLine) -> Option<Vector3<f64>> {
     }
     Some(Vector3::new(f64::from(a), f64::from(b), f64::from(c)))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gfs_lines::Segment;
+
+    #[test]
+    fn a_keypoint_is_weighed_by_its_level_and_keeps_its_depth() {
+        let kp = KeyPoint {
+            u: 10.5,
+            v: 20.0,
+            level: 2,
+            angle: 0.0,
+            response: 1.0,
+            depth: 1.5,
+        };
+        let m = KeypointMeasurement::new(&kp, &ScalePyramid::new(1.2, 8));
+        assert_eq!((m.uv, m.depth), (Vector2::new(10.5, 20.0), 1.5));
+        assert!((m.inv_sigma2 - 1.0 / 1.2f64.powi(4)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_segment_gives_its_normalised_line_and_a_point_gives_none() {
+        let line = |s| DetectedLine {
+            segment: s,
+            mean_gradient: 1.0,
+        };
+        let l = observed_line(&line(Segment::new(0.0, 2.0, 10.0, 2.0))).expect("a line");
+        assert!((l.x.hypot(l.y) - 1.0).abs() < 1e-6);
+        // The distance of (5, 5) to the line v = 2 is 3 px.
+        assert!((l.x * 5.0 + l.y * 5.0 + l.z).abs() - 3.0 < 1e-6);
+        assert!(observed_line(&line(Segment::new(3.0, 3.0, 3.0, 3.0))).is_none());
+    }
+}

@@ -131,3 +131,56 @@ impl PoseSolver {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::OdometryConfig;
+    use crate::testing::{Scene, camera, first_keyframe, pose, scale};
+
+    #[test]
+    fn the_pose_is_recovered_from_a_wrong_start_and_a_wrong_match_is_unlinked() {
+        let scene = Scene::new(150, 10);
+        let (map, _, kf) = first_keyframe(&scene, &OdometryConfig::default());
+        let truth = pose(0.05, 0.02);
+        let frame = scene.features(1, &truth);
+        let keyframe = map.keyframe(kf).expect("kf");
+        let mut point_ids = keyframe.point_ids.clone();
+        let mut line_ids = keyframe.line_ids.clone();
+        // Keypoint 0 linked to the point of keypoint 100: an outlier.
+        point_ids[0] = keyframe.point_ids[100];
+        let mut solver = PoseSolver::new(PoseOptimizerConfig::default(), camera(), scale());
+        let mut camera_from_world = pose(0.0, 0.0);
+        let inliers = solver.solve(
+            &map,
+            &frame,
+            &mut camera_from_world,
+            &mut point_ids,
+            &mut line_ids,
+        );
+        let error = camera_from_world * truth.inverse();
+        assert!(error.translation.vector.norm() < 1e-6, "{error}");
+        assert!(error.rotation.angle() < 1e-6);
+        assert_eq!(point_ids[0], None, "the outlier is unlinked");
+        assert_eq!((inliers.points, inliers.lines), (149, 10));
+        assert_eq!(inliers.total(), 159);
+    }
+
+    #[test]
+    fn no_match_leaves_the_pose_alone() {
+        let scene = Scene::new(10, 0);
+        let (map, _, _) = first_keyframe(&scene, &OdometryConfig::default());
+        let frame = scene.features(1, &pose(0.0, 0.0));
+        let mut solver = PoseSolver::new(PoseOptimizerConfig::default(), camera(), scale());
+        let start = pose(0.1, 0.0);
+        let mut camera_from_world = start;
+        let inliers = solver.solve(
+            &map,
+            &frame,
+            &mut camera_from_world,
+            &mut [None; 10],
+            &mut [],
+        );
+        assert_eq!((inliers, camera_from_world), (Inliers::default(), start));
+    }
+}

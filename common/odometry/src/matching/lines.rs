@@ -240,3 +240,38 @@ mod tests {
         );
     }
 }
+
+#[cfg(test)]
+mod search_tests {
+    use super::*;
+    use crate::config::OdometryConfig;
+    use crate::testing::{Scene, camera, first_keyframe, pose};
+
+    #[test]
+    fn map_lines_match_their_segments_and_the_extension_reaches_shifted_ones() {
+        let scene = Scene::new(120, 12);
+        let (map, _, _) = first_keyframe(&scene, &OdometryConfig::default());
+        let mut ids: Vec<MapLineId> = map.line_ids().collect();
+        ids.sort_unstable();
+        let at = pose(0.02, 0.0);
+        let frame = scene.features(1, &at);
+        let mut matcher = LineProjectionMatcher::new(
+            LineMatchConfig::default(),
+            camera(),
+            &GridConfig::default(),
+        );
+        matcher.index(&frame);
+        let mut matches = vec![None; frame.lines.len()];
+        let found = matcher.search(&map, &ids, &at, &frame, LineWindow::Segment, &mut matches);
+        assert_eq!((found, matcher.in_view().len()), (12, 12));
+        for (j, m) in matches.iter().enumerate() {
+            let line = map.line(m.expect("every line")).expect("line");
+            assert_eq!(line.descriptor, frame.line_descriptors[j]);
+        }
+        assert_eq!(
+            matcher.search(&map, &ids, &at, &frame, LineWindow::Extension, &mut matches),
+            0,
+            "matched lines stay matched"
+        );
+    }
+}

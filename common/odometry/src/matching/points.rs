@@ -259,3 +259,89 @@ impl ScalePyramid {
         self.scale_factor.powi(-2 * level as i32)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::OdometryConfig;
+    use crate::testing::{Scene, camera, first_keyframe, pose, scale};
+
+    fn setup() -> (Map, Vec<ProjectionCandidate>, Scene) {
+        let scene = Scene::new(200, 0);
+        let (map, _, _) = first_keyframe(&scene, &OdometryConfig::default());
+        let mut ids: Vec<MapPointId> = map.point_ids().collect();
+        ids.sort_unstable();
+        let candidates = ids
+            .into_iter()
+            .map(|id| ProjectionCandidate { id, angle: None })
+            .collect();
+        (map, candidates, scene)
+    }
+
+    #[test]
+    fn map_points_match_their_keypoints_from_the_true_pose() {
+        let (map, candidates, scene) = setup();
+        let at = pose(0.03, 0.01);
+        let frame = scene.features(1, &at);
+        let mut matcher =
+            PointProjectionMatcher::new(PointMatchConfig::default(), camera(), scale());
+        matcher.index(&frame);
+        let mut matches = vec![None; frame.keypoints.len()];
+        let found = matcher.search(
+            &map,
+            &candidates,
+            &at,
+            &frame,
+            PointWindow::Radius(15.0),
+            &mut matches,
+        );
+        let in_image = frame.keypoints.iter().filter(|k| k.depth > 0.0).count();
+        assert_eq!((found, matcher.in_view().len()), (in_image, in_image));
+        // Keypoint i is point i: each match links the keypoint to the point made from it.
+        for (i, m) in matches.iter().enumerate() {
+            let Some(id) = m else { continue };
+            let p = map.point(*id).expect("point");
+            assert_eq!(p.descriptor, frame.point_descriptors[i]);
+        }
+        // Entries already set are kept: a second search adds nothing.
+        let again = matcher.search(
+            &map,
+            &candidates,
+            &at,
+            &frame,
+            PointWindow::Radius(15.0),
+            &mut matches,
+        );
+        assert_eq!(again, 0);
+    }
+
+    #[test]
+    fn the_window_decides_how_far_off_a_prediction_may_be() {
+        let (map, candidates, scene) = setup();
+        let at = pose(0.0, 0.0);
+        let frame = scene.features(1, &at);
+        // Predicted 2 degrees off: about 18 px at 525 px focal length.
+        let predicted = pose(0.0, 2f64.to_radians());
+        let mut matcher =
+            PointProjectionMatcher::new(PointMatchConfig::default(), camera(), scale());
+        matcher.index(&frame);
+        let mut run = |window| {
+            let mut matches = vec![None; frame.keypoints.len()];
+            matcher.search(&map, &candidates, &predicted, &frame, window, &mut matches)
+        };
+        let narrow = run(PointWindow::Radius(10.0));
+        let wide = run(PointWindow::Radius(50.0));
+        // ByViewingAngle(3): 3 x 2.5 px for a point seen along its mean view.
+        let local_map = run(PointWindow::ByViewingAngle(3.0));
+        assert!(narrow < 20 && local_map < 20, "{narrow} {local_map}");
+        assert!(wide > 150, "{wide}");
+    }
+
+    #[test]
+    fn scale_factors_and_sigmas_follow_the_level() {
+        let s = scale();
+        assert!((s.factor(2) - 1.44).abs() < 1e-12);
+        assert!((s.inv_sigma2(1) - 1.0 / 1.44).abs() < 1e-12);
+        assert!((s.log_scale - 1.2f64.ln()).abs() < 1e-15);
+    }
+}

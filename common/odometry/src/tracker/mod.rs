@@ -234,3 +234,71 @@ impl Tracker {
         frame.inliers.total()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::OdometryConfig;
+    use crate::testing::{Scene, camera, first_keyframe, pose, relinked, scale};
+
+    fn tracker() -> Tracker {
+        Tracker::new(
+            TrackingConfig::default(),
+            camera(),
+            scale(),
+            &GridConfig::default(),
+        )
+    }
+
+    #[test]
+    fn the_motion_model_goes_first_once_there_is_motion() {
+        assert_eq!(Strategy::order(true)[0], Strategy::MotionModel);
+        assert_eq!(Strategy::order(false)[0], Strategy::WideRansac);
+        for moving in [true, false] {
+            assert_eq!(Strategy::order(moving).len(), 3);
+            assert_eq!(Strategy::order(moving)[2], Strategy::ReferenceKeyFrame);
+        }
+    }
+
+    #[test]
+    fn without_a_velocity_a_turn_is_tracked_and_the_sightings_counted() {
+        let scene = Scene::new(200, 20);
+        let (map, _, kf) = first_keyframe(&scene, &OdometryConfig::default());
+        let mut tracker = tracker();
+        tracker.set_reference(kf);
+        tracker.finish_frame(relinked(map.keyframe(kf).expect("kf")));
+        // 3 degrees and 3 cm from the last frame, which the prediction (the last pose)
+        // does not know.
+        let truth = pose(0.03, 3f64.to_radians());
+        let mut sightings = Sightings::default();
+        let frame = tracker.track(&map, scene.features(1, &truth), &mut sightings);
+        assert_eq!(frame.status, TrackingStatus::Tracked);
+        let error = frame.camera_from_world * truth.inverse();
+        assert!(error.translation.vector.norm() < 1e-6, "{error}");
+        assert!(frame.inliers.points > 150 && frame.inliers.lines > 10);
+        let some = frame.point_ids.iter().flatten().next().expect("a match");
+        assert_eq!(sightings.point(*some).found, 1);
+        assert_eq!(tracker.reference(), Some(kf));
+    }
+
+    #[test]
+    fn a_frame_that_matches_nothing_keeps_the_prediction() {
+        let scene = Scene::new(200, 0);
+        let (map, _, kf) = first_keyframe(&scene, &OdometryConfig::default());
+        let mut tracker = tracker();
+        tracker.set_reference(kf);
+        tracker.finish_frame(relinked(map.keyframe(kf).expect("kf")));
+        // The same geometry with other descriptors: nothing matches, relocalisation
+        // included.
+        let mut features = scene.features(1, &pose(0.01, 0.0));
+        for d in &mut features.point_descriptors {
+            d[0] = !d[0];
+            d[2] = !d[2];
+        }
+        let mut sightings = Sightings::default();
+        let frame = tracker.track(&map, features, &mut sightings);
+        assert_eq!(frame.status, TrackingStatus::Predicted);
+        assert_eq!(frame.camera_from_world, Isometry3::identity());
+        assert!(frame.point_ids.iter().all(Option::is_none));
+    }
+}
