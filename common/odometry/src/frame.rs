@@ -11,7 +11,7 @@ pub use gfs_points::{Descriptor, hamming};
 
 /// Features of one frame, as the points, lines and planes stages deliver them.
 /// Parallel vectors: `point_descriptors[i]` describes `keypoints[i]`, and
-/// `line_descriptors[j]`, `lines3d[j]`, `line_axes[j]` belong to `lines[j]`.
+/// `line_descriptors[j]`, `lines3d[j]` belong to `lines[j]`.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct FrameFeatures {
     /// Input frame id.
