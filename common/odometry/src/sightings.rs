@@ -62,6 +62,15 @@ impl Sightings {
         self.lines.get(&id).copied().unwrap_or_default()
     }
 
+    /// The counts so far, leaving this accumulator empty with its memory kept (the
+    /// tracker counts into it every frame; only a keyframe request takes a copy).
+    pub fn take(&mut self) -> Sightings {
+        let taken = self.clone();
+        self.points.clear();
+        self.lines.clear();
+        taken
+    }
+
     /// True when nothing was counted.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty() && self.lines.is_empty()
@@ -125,6 +134,15 @@ mod tests {
         let l = map.line(line).expect("line");
         assert_eq!((l.visible, l.found), (2, 1));
         assert!(map.point(MapPointId(999)).is_none());
+    }
+
+    #[test]
+    fn taking_the_counts_empties_the_accumulator() {
+        let mut sightings = Sightings::default();
+        sightings.points_found([MapPointId(1)].iter());
+        let taken = sightings.take();
+        assert!(sightings.is_empty());
+        assert_eq!(taken.point(MapPointId(1)).found, 1);
     }
 
     #[test]

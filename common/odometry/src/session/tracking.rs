@@ -328,7 +328,7 @@ impl TrackingSession {
             frame: frame.clone(),
             manhattan: self.manhattan.clone(),
             reset,
-            sightings: std::mem::take(&mut self.sightings),
+            sightings: self.sightings.take(),
         }
     }
 
