@@ -55,6 +55,13 @@ pub struct TrackOutput {
     pub keyframe: Option<KeyFrameRequest>,
 }
 
+/// A frame starts a map (it becomes its first keyframe); with `reset`, the mapping half
+/// must first drop the map that was abandoned.
+#[derive(Clone, Copy, Debug)]
+struct MapStart {
+    reset: bool,
+}
+
 /// What a restarted tracker needs to go on where the old one stopped (the map comes
 /// from the mapper).
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
@@ -180,9 +187,7 @@ impl TrackingSession {
             features.line_descriptors.clear();
             features.lines3d.clear();
         }
-        let (frame, starts_map) = self.step(features);
-        let reset = starts_map == Some(true);
-        let starts_map = starts_map.is_some();
+        let (frame, start) = self.step(features);
         let tracked = frame.status.is_tracked();
         if tracked {
             if let Some(axes) = &frame.features.manhattan {
@@ -192,7 +197,7 @@ impl TrackingSession {
             self.frames_since_keyframe += 1;
         }
         // A frame that starts a map is its first keyframe.
-        let wants_keyframe = starts_map
+        let wants_keyframe = start.is_some()
             || (tracked
                 && self.requests.pending().is_none()
                 && needs_keyframe(
@@ -215,15 +220,15 @@ impl TrackingSession {
             "tracked"
         );
         let pose = FramePose::of(&frame);
+        let reset = start.is_some_and(|s| s.reset);
         let keyframe = wants_keyframe.then(|| self.request_keyframe(&frame, reset));
         self.tracker.finish_frame(frame);
         Ok(TrackOutput { pose, keyframe })
     }
 
     /// One transition of the state machine ([`TrackingState`]): the frame as tracked,
-    /// and `Some(reset)` when it starts a map (`reset`: the mapping half must drop the
-    /// abandoned one).
-    fn step(&mut self, features: FrameFeatures) -> (TrackedFrame, Option<bool>) {
+    /// and whether it starts a map.
+    fn step(&mut self, features: FrameFeatures) -> (TrackedFrame, Option<MapStart>) {
         let lost = match self.state {
             TrackingState::NoMap { reset } => {
                 let frame = self.try_initialise(features);
@@ -231,7 +236,7 @@ impl TrackingSession {
                     return (frame, None);
                 }
                 self.state = TrackingState::Tracking;
-                return (frame, Some(reset));
+                return (frame, Some(MapStart { reset }));
             }
             TrackingState::Tracking => 0,
             TrackingState::Lost { frames } => frames,

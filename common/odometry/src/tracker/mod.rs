@@ -27,7 +27,7 @@ use crate::rolling_shutter;
 use crate::sightings::Sightings;
 use crate::status::TrackingStatus;
 use gfs_core::camera::PinholeCamera;
-use gfs_core::ids::{KeyFrameId, MapLineId};
+use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
 use gfs_lines::grid::GridConfig;
 use nalgebra::Isometry3;
 
@@ -75,7 +75,7 @@ pub struct Tracker {
     descriptor_matches: Vec<Option<usize>>,
     ransac: RigidRansac,
     correspondences: Vec<Correspondence>,
-    correspondence_keypoints: Vec<(usize, gfs_core::ids::MapPointId)>,
+    correspondence_keypoints: Vec<(usize, MapPointId)>,
 }
 
 impl Tracker {

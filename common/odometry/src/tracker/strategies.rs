@@ -6,6 +6,7 @@ use super::{TrackedFrame, Tracker};
 use crate::map::Map;
 use crate::matching::{LineWindow, PointWindow, ProjectionCandidate, match_descriptors};
 use crate::ransac::Correspondence;
+use nalgebra::Isometry3;
 
 /// Fewer point matches than this against the last frame: search again with twice the
 /// radius (ORB-SLAM2 `TrackWithMotionModel`: 20).
@@ -155,7 +156,7 @@ impl Tracker {
     pub(super) fn search_lines(
         &mut self,
         map: &Map,
-        pose: &nalgebra::Isometry3<f64>,
+        pose: &Isometry3<f64>,
         frame: &mut TrackedFrame,
     ) -> usize {
         let matched = self.lines.search(
@@ -175,7 +176,7 @@ impl Tracker {
     pub(super) fn extension_search(
         &mut self,
         map: &Map,
-        pose: &nalgebra::Isometry3<f64>,
+        pose: &Isometry3<f64>,
         frame: &mut TrackedFrame,
     ) -> usize {
         let total = frame.line_ids.iter().flatten().count();
