@@ -77,3 +77,20 @@ pub struct FeatureError {
     /// The length it should have.
     pub want: usize,
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::testing::{Scene, pose};
+
+    #[test]
+    fn vectors_that_do_not_line_up_are_named() {
+        let mut features = Scene::new(10, 3).features(4, &pose(0.0, 0.0));
+        assert_eq!(features.validate(), Ok(()));
+        features.lines3d.pop();
+        let e = features.validate().unwrap_err();
+        assert_eq!((e.what, e.got, e.want), ("lines3d", 2, 3));
+        assert_eq!(e.to_string(), "frame 4: lines3d has 2 entries, expected 3");
+        features.point_descriptors.clear();
+        assert_eq!(features.validate().unwrap_err().what, "point_descriptors");
+    }
+}
