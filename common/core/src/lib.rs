@@ -11,6 +11,7 @@
 //!   convention used by every optimiser of the project.
 //! - [`align`]: least-squares rigid alignment of 3D point pairs (Kabsch).
 //! - [`ids`]: typed ids, so that a frame id never indexes a map point.
+//! - [`descriptor`]: 256-bit binary descriptors and their Hamming distance.
 //! - [`rng`]: a deterministic PRNG (SplitMix64) for sampling and fixtures.
 //!
 //! Conventions (see DESIGN.md): poses are `T_wc` (`world_from_camera`,
@@ -31,6 +32,7 @@
 
 pub mod align;
 pub mod camera;
+pub mod descriptor;
 pub mod fields;
 pub mod ids;
 mod image;

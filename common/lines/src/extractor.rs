@@ -7,7 +7,6 @@ use crate::grid::{GridConfig, LineGrid};
 use crate::homogenise::{HomogeniseConfig, Homogeniser};
 use crate::lbd::{LbdConfig, LbdDescriptor, LbdExtractor};
 use crate::lines3d::{Line3, Line3Estimator, Lines3dConfig};
-use crate::matching::LineSet;
 use gfs_core::ImageView;
 use gfs_core::camera::PinholeCamera;
 use serde::{Deserialize, Serialize};
@@ -50,14 +49,6 @@ impl LineFeatures {
     /// True when there is no line.
     pub fn is_empty(&self) -> bool {
         self.lines.is_empty()
-    }
-
-    /// The lines and descriptors as the matcher's input.
-    pub fn as_set(&self) -> LineSet<'_> {
-        LineSet {
-            lines: &self.lines,
-            descriptors: &self.descriptors,
-        }
     }
 
     /// Empties every array, keeping the storage.
@@ -241,11 +232,43 @@ mod tests {
     use super::*;
     use crate::Segment;
     use crate::fixtures::{H, Rng, Scene, W, Warp, render};
-    use crate::matching::{LineMatchConfig, LineMatcher};
     use gfs_core::Image;
+    use gfs_core::descriptor::hamming;
 
     fn camera() -> PinholeCamera {
         PinholeCamera::new(525.0, 525.0, 319.5, 239.5, W, H)
+    }
+
+    /// Line `i` of `q`'s nearest line of `t` by LBD distance among those within 30
+    /// degrees, when within 80 bits and clearly better than the runner-up (ratio 0.8).
+    fn nearest(q: &LineFeatures, t: &LineFeatures, i: usize) -> Option<usize> {
+        let max_angle = 30f32.to_radians();
+        let (mut best, mut second, mut best_j) = (u32::MAX, u32::MAX, usize::MAX);
+        for (j, line) in t.lines.iter().enumerate() {
+            let diff = (q.lines[i].segment.angle() - line.segment.angle())
+                .rem_euclid(std::f32::consts::PI);
+            if diff.min(std::f32::consts::PI - diff) > max_angle {
+                continue;
+            }
+            let d = hamming(&q.descriptors[i], &t.descriptors[j]);
+            if d < best {
+                (second, best, best_j) = (best, d, j);
+            } else if d < second {
+                second = d;
+            }
+        }
+        let clear = second == u32::MAX || (best as f32) < 0.8 * second as f32;
+        (best <= 80 && clear).then_some(best_j)
+    }
+
+    /// Lines that are each other's nearest: what the descriptor alone can match.
+    fn mutual_matches(a: &LineFeatures, b: &LineFeatures) -> Vec<(usize, usize)> {
+        (0..a.len())
+            .filter_map(|i| {
+                let j = nearest(a, b, i)?;
+                (nearest(b, a, j) == Some(i)).then_some((i, j))
+            })
+            .collect()
     }
 
     fn segments(f: &LineFeatures) -> Vec<Segment> {
@@ -307,18 +330,16 @@ mod tests {
         // No depth at all: every 3D line is invalid.
         assert!(f1.lines3d.iter().all(|l| !l.is_valid()));
         let (s1, s2) = (segments(&f1), segments(&f2));
-        let mut matcher = LineMatcher::new(LineMatchConfig::default());
-        let mut matches = Vec::new();
-        matcher.match_lines(f1.as_set(), f2.as_set(), None, &mut matches);
+        let matches = mutual_matches(&f1, &f2);
         let correct = matches
             .iter()
-            .filter(|m| {
-                let s = &s1[m.query as usize];
+            .filter(|&&(i, j)| {
+                let s = &s1[i];
                 let warped = Segment {
                     start: warp.apply(s.start),
                     end: warp.apply(s.end),
                 };
-                same_line(&warped, &s2[m.train as usize])
+                same_line(&warped, &s2[j])
             })
             .count();
         println!(

@@ -1,7 +1,6 @@
 //! Test fixtures shared by the unit tests: a reproducible PRNG, a textured scene of
 //! rectangles with known edges, a similarity warp and a renderer.
 
-use crate::Segment;
 use gfs_core::Image;
 
 /// splitmix64, for reproducible fixtures.
@@ -78,20 +77,6 @@ impl Scene {
         }
         value
     }
-
-    /// The rectangle edges, 3 px short of the corners.
-    pub(crate) fn segments(&self) -> Vec<Segment> {
-        let mut out = Vec::new();
-        for ([x0, y0, x1, y1], _) in &self.rects {
-            // Edges lie between pixel centres: pixel u is inside when u >= x0.
-            let (a, b, c, d) = (x0 - 0.5, y0 - 0.5, x1 - 0.5, y1 - 0.5);
-            out.push(Segment::new(a + 3.0, b, c - 3.0, b));
-            out.push(Segment::new(c, b + 3.0, c, d - 3.0));
-            out.push(Segment::new(c - 3.0, d, a + 3.0, d));
-            out.push(Segment::new(a, d - 3.0, a, b + 3.0));
-        }
-        out
-    }
 }
 
 /// Similarity about the image centre: rotation `angle`, scale `scale`, shift `t`.
@@ -160,26 +145,4 @@ pub(crate) fn render(scene: &Scene, warp: &Warp, rng: &mut Rng) -> Image<u8> {
         }
     }
     img
-}
-
-/// Sobel derivatives along u and v (zero on the border).
-pub(crate) fn sobel(img: &Image<u8>) -> (Image<i16>, Image<i16>) {
-    let (w, h) = (img.width(), img.height());
-    let (mut gx, mut gy) = (Image::<i16>::new(w, h), Image::<i16>::new(w, h));
-    for v in 1..h.saturating_sub(1) {
-        for u in 1..w.saturating_sub(1) {
-            let p = |du: usize, dv: usize| i16::from(img.get(u + du - 1, v + dv - 1).unwrap_or(0));
-            gx.set(
-                u,
-                v,
-                p(2, 0) + 2 * p(2, 1) + p(2, 2) - p(0, 0) - 2 * p(0, 1) - p(0, 2),
-            );
-            gy.set(
-                u,
-                v,
-                p(0, 2) + 2 * p(1, 2) + p(2, 2) - p(0, 0) - 2 * p(1, 0) - p(2, 0),
-            );
-        }
-    }
-    (gx, gy)
 }

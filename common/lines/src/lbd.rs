@@ -25,7 +25,7 @@ use gfs_core::ImageView;
 use serde::{Deserialize, Serialize};
 
 /// A 256-bit LBD descriptor; bit `8 p + k` is comparison `k` of band pair `p`.
-pub type LbdDescriptor = [u64; 4];
+pub type LbdDescriptor = gfs_core::descriptor::Descriptor;
 
 /// Number of bands of the LSR (the binary pair layout is defined for 9).
 pub const BANDS: usize = 9;
@@ -308,19 +308,11 @@ impl LbdExtractor {
     }
 }
 
-/// Hamming distance between two descriptors (0..=256).
-#[inline]
-pub fn hamming(a: &LbdDescriptor, b: &LbdDescriptor) -> u32 {
-    (a[0] ^ b[0]).count_ones()
-        + (a[1] ^ b[1]).count_ones()
-        + (a[2] ^ b[2]).count_ones()
-        + (a[3] ^ b[3]).count_ones()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use gfs_core::Image;
+    use gfs_core::descriptor::hamming;
 
     /// Sobel of a synthetic image: vertical step at u = 30 plus a weaker horizontal
     /// step at v = 20.

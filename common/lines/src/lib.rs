@@ -41,7 +41,6 @@ pub mod homogenise;
 pub mod join;
 pub mod lbd;
 pub mod lines3d;
-pub mod matching;
 mod segment;
 
 pub use segment::{DetectedLine, Segment};

@@ -11,7 +11,7 @@ pub use gfs_points::{Descriptor, hamming};
 
 /// Features of one frame, as the points, lines and planes stages deliver them.
 /// Parallel vectors: `point_descriptors[i]` describes `keypoints[i]`, and
-/// `line_descriptors[j]`, `lines3d[j]`, `line_axes[j]` belong to `lines[j]`.
+/// `line_descriptors[j]`, `lines3d[j]` belong to `lines[j]`.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct FrameFeatures {
     /// Input frame id.
@@ -76,4 +76,21 @@ pub struct FeatureError {
     pub got: usize,
     /// The length it should have.
     pub want: usize,
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::testing::{Scene, pose};
+
+    #[test]
+    fn vectors_that_do_not_line_up_are_named() {
+        let mut features = Scene::new(10, 3).features(4, &pose(0.0, 0.0));
+        assert_eq!(features.validate(), Ok(()));
+        features.lines3d.pop();
+        let e = features.validate().unwrap_err();
+        assert_eq!((e.what, e.got, e.want), ("lines3d", 2, 3));
+        assert_eq!(e.to_string(), "frame 4: lines3d has 2 entries, expected 3");
+        features.point_descriptors.clear();
+        assert_eq!(features.validate().unwrap_err().what, "point_descriptors");
+    }
 }

@@ -1,6 +1,7 @@
 //! When a frame becomes a keyframe (paper "Keyframe Select and Filter", after ORB-SLAM2's
-//! `NeedNewKeyFrame` for RGB-D): when the tracked points **or** lines fall well below
-//! the reference keyframe's, or close structure is no longer covered by the map.
+//! `NeedNewKeyFrame` for RGB-D): when the tracked points **or** the tracked lines fall
+//! well below the reference keyframe's, each against its own threshold, when close
+//! structure is no longer covered by the map, or when the last keyframe is too old.
 
 use crate::config::KeyframeConfig;
 use crate::map::Map;
@@ -11,20 +12,37 @@ use gfs_core::ids::KeyFrameId;
 /// while more than 70 close ones are untracked asks for a keyframe).
 const CLOSE_TRACKED_MIN: usize = 100;
 const CLOSE_UNTRACKED_MAX: usize = 70;
-/// With the lines' ratio low, the points must be below this fraction of the reference's.
-const LINE_RULE_POINT_RATIO: f32 = 0.9;
+/// The line rule needs a reference keyframe with at least this many map lines: with
+/// fewer, losing a handful is noise, not a change of view.
+const MIN_REFERENCE_LINES: usize = 10;
 /// A keyframe needs at least this many tracked points to anchor the map (ORB-SLAM2: 15).
 const MIN_INLIERS_FOR_KEYFRAME: usize = 15;
+
+/// What the decision looks at besides the frame.
+#[derive(Clone, Copy, Debug)]
+pub struct KeyframeContext<'a> {
+    /// The map tracked against.
+    pub map: &'a Map,
+    /// The reference keyframe.
+    pub reference: Option<KeyFrameId>,
+    /// Frames tracked since the last keyframe.
+    pub frames_since_keyframe: u32,
+    /// Depth below which a keypoint is close (`[tracking] close_depth_m`).
+    pub close_depth_m: f32,
+}
 
 /// Decides whether `frame` should become a keyframe.
 pub fn needs_keyframe(
     config: &KeyframeConfig,
-    map: &Map,
+    context: &KeyframeContext<'_>,
     frame: &TrackedFrame,
-    reference: Option<KeyFrameId>,
-    frames_since_keyframe: u32,
-    close_depth_m: f32,
 ) -> bool {
+    let KeyframeContext {
+        map,
+        reference,
+        frames_since_keyframe,
+        close_depth_m,
+    } = *context;
     if !frame.status.is_tracked() {
         return false;
     }
@@ -64,12 +82,120 @@ pub fn needs_keyframe(
     let need_close = close_tracked < CLOSE_TRACKED_MIN && close_untracked > CLOSE_UNTRACKED_MAX;
     let points = frame.inliers.points as f32;
     let points_low = points < reference_points as f32 * config.point_ratio;
-    // Lines are less stable than points after homogenisation (paper "Keyframe Select and
-    // Filter"): a drop in lines asks for a keyframe only when the points dropped too.
-    let lines_low = reference_lines >= 10
-        && (frame.inliers.lines as f32) < reference_lines as f32 * config.line_ratio
-        && points < reference_points as f32 * LINE_RULE_POINT_RATIO;
+    // Lines are less stable than points after homogenisation, so their threshold is
+    // lower (paper "Keyframe Select and Filter"), but a drop below it asks for a
+    // keyframe on its own: the view moved to where the map's lines are not.
+    let lines_low = reference_lines >= MIN_REFERENCE_LINES
+        && (frame.inliers.lines as f32) < reference_lines as f32 * config.line_ratio;
     let timeout = frames_since_keyframe >= config.max_frames;
     (points_low || lines_low || need_close || timeout)
         && frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::OdometryConfig;
+    use crate::status::TrackingStatus;
+    use crate::testing::{Scene, first_keyframe, relinked};
+
+    /// A map of one keyframe (200 points, 20 lines) and that keyframe's frame seen
+    /// again, one frame later.
+    fn setup() -> (Map, KeyFrameId, TrackedFrame) {
+        let (map, _, kf) = first_keyframe(&Scene::new(200, 20), &OdometryConfig::default());
+        let frame = relinked(map.keyframe(kf).expect("keyframe"));
+        assert_eq!((frame.inliers.points, frame.inliers.lines), (200, 20));
+        (map, kf, frame)
+    }
+
+    fn decide(map: &Map, reference: Option<KeyFrameId>, frame: &TrackedFrame, since: u32) -> bool {
+        let context = KeyframeContext {
+            map,
+            reference,
+            frames_since_keyframe: since,
+            close_depth_m: 3.1,
+        };
+        needs_keyframe(&KeyframeConfig::default(), &context, frame)
+    }
+
+    #[test]
+    fn a_frame_that_sees_what_its_reference_saw_needs_no_keyframe() {
+        let (map, kf, frame) = setup();
+        assert!(!decide(&map, Some(kf), &frame, 1));
+    }
+
+    #[test]
+    fn without_a_reference_a_tracked_frame_becomes_one() {
+        let (map, _, mut frame) = setup();
+        assert!(decide(&map, None, &frame, 1));
+        frame.status = TrackingStatus::Predicted;
+        assert!(
+            !decide(&map, None, &frame, 1),
+            "an untracked frame never does"
+        );
+    }
+
+    #[test]
+    fn points_below_the_point_ratio_ask_for_a_keyframe() {
+        let (map, kf, mut frame) = setup();
+        // point_ratio 0.9 of the reference's 200 points: 180.
+        frame.inliers.points = 181;
+        assert!(!decide(&map, Some(kf), &frame, 1));
+        frame.inliers.points = 179;
+        assert!(decide(&map, Some(kf), &frame, 1));
+    }
+
+    #[test]
+    fn lines_below_the_line_ratio_ask_for_a_keyframe_on_their_own() {
+        let (map, kf, mut frame) = setup();
+        // line_ratio 0.3 of the reference's 20 lines: 6; the points stay high.
+        frame.inliers.points = 195;
+        frame.inliers.lines = 6;
+        assert!(!decide(&map, Some(kf), &frame, 1));
+        frame.inliers.lines = 5;
+        assert!(decide(&map, Some(kf), &frame, 1));
+    }
+
+    #[test]
+    fn a_reference_with_few_lines_does_not_trigger_the_line_rule() {
+        let (map, _, kf, frame) = {
+            let (map, mapper, kf) = first_keyframe(&Scene::new(200, 9), &OdometryConfig::default());
+            let frame = relinked(map.keyframe(kf).expect("keyframe"));
+            (map, mapper, kf, frame)
+        };
+        let mut frame = frame;
+        frame.inliers.lines = 0;
+        assert!(!decide(&map, Some(kf), &frame, 1));
+    }
+
+    #[test]
+    fn max_frames_after_the_last_keyframe_ask_for_one() {
+        let (map, kf, frame) = setup();
+        assert!(!decide(&map, Some(kf), &frame, 29));
+        assert!(decide(&map, Some(kf), &frame, 30));
+    }
+
+    #[test]
+    fn close_keypoints_the_map_does_not_cover_ask_for_a_keyframe() {
+        let (map, kf, mut frame) = setup();
+        // Unlink close keypoints until fewer than 100 close ones are tracked and more
+        // than 70 are not; the inlier count stays high.
+        let close: Vec<usize> = (0..frame.point_ids.len())
+            .filter(|&i| frame.features.keypoints[i].depth < 3.1)
+            .collect();
+        assert!(close.len() > 160, "{} close keypoints", close.len());
+        for &i in close.iter().take(close.len() - 90) {
+            frame.point_ids[i] = None;
+        }
+        assert!(decide(&map, Some(kf), &frame, 1));
+    }
+
+    #[test]
+    fn a_frame_with_too_few_points_never_becomes_a_keyframe() {
+        let (map, kf, mut frame) = setup();
+        frame.inliers.points = MIN_INLIERS_FOR_KEYFRAME;
+        assert!(!decide(&map, Some(kf), &frame, 30));
+        frame.inliers.points = MIN_INLIERS_FOR_KEYFRAME + 1;
+        assert!(decide(&map, Some(kf), &frame, 30));
+    }
 }

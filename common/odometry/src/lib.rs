@@ -5,21 +5,24 @@
 //! out for every frame ([`FramePose`], `T_wc` with a [`TrackingStatus`]).
 //!
 //! **Model.** The [`map::Map`] holds keyframes and landmarks (map points, map lines
-//! with their Manhattan axis) in id-keyed arenas; covisibility is derived from shared
-//! observations. The [`Tracker`] predicts with a constant-velocity model, matches points
-//! by projection in a keypoint grid and lines through the line grid (with the extension
-//! search of Fig. 6), optimises the pose on point reprojection and line
-//! endpoint-to-line errors (eq. 6-9), then tracks the local map. The [`Mapper`] turns
-//! keyframes (chosen on points **and** lines) into landmarks, fuses duplicates, runs the
-//! local BA with reprojection, structural and Manhattan terms (eq. 10-14) and culls
-//! keyframes redundant in both points and lines. The map is bounded, so memory and
-//! time stay flat over long runs. A lost frame is relocalised against the map, or gets
-//! the predicted pose; a long outage starts a new local map at the predicted pose, in
-//! the same world frame.
+//! with their Manhattan axis) in one id-keyed store per landmark kind
+//! ([`map::Landmark`]); covisibility is derived from shared observations. The
+//! [`Tracker`] reads the map: it predicts with a constant-velocity model, tries the
+//! [`Strategy`] list in order (motion model, wide search with RANSAC, reference
+//! keyframe), tracks the local map and optimises the pose on point reprojection and
+//! line endpoint-to-line errors (eq. 6-9); a frame nothing tracks is relocalised
+//! against the map. What it saw of each landmark goes into [`Sightings`]. The
+//! [`Mapper`] turns keyframes (chosen on points **or** lines, [`needs_keyframe`]) into
+//! landmarks, fuses duplicates, runs the local BA with reprojection, structural and
+//! Manhattan terms (eq. 10-14) and culls keyframes redundant in both points and lines.
+//! The map is bounded, so memory and time stay flat over long runs.
 //!
 //! **Use.** [`Odometry::process`] runs tracking and mapping in the caller's thread; the
 //! pipeline runs the two halves of [`session`] as two services that exchange keyframe
-//! requests and map snapshots (the same messages the in-process path passes by value). [`Frontend`]
+//! requests (with the sightings) and maps (the same messages the in-process path passes
+//! by value). The tracking half is a state machine ([`session::TrackingState`]: no map,
+//! tracking, lost; a long outage starts a new local map at the predicted pose, in the
+//! same world frame) that a restarted tracker resumes from its checkpoint. [`Frontend`]
 //! extracts the features of a frame in-process.
 #![warn(missing_docs)]
 
@@ -34,20 +37,24 @@ mod mapper;
 pub mod matching;
 mod messages_check;
 mod motion;
+mod observation;
 mod odometry;
 mod pose_solver;
 mod ransac;
 mod relocalise;
 mod rolling_shutter;
 pub mod session;
+mod sightings;
 mod status;
+#[cfg(test)]
+mod testing;
 mod tracker;
 mod validate;
 
 pub use config::{KeyframeConfig, MappingConfig, OdometryConfig, TrackingConfig};
 pub use frame::{FeatureError, FrameFeatures};
 pub use frontend::{Frontend, FrontendError, FrontendTimings, StructureExtractor};
-pub use keyframe_policy::needs_keyframe;
+pub use keyframe_policy::{KeyframeContext, needs_keyframe};
 pub use manhattan::WorldManhattan;
 pub use mapper::Mapper;
 pub use messages_check::MessageError;
@@ -56,5 +63,6 @@ pub use odometry::{Odometry, OdometryTimings};
 pub use pose_solver::Inliers;
 pub use relocalise::{Relocalisation, relocalise};
 pub use session::FramePose;
+pub use sightings::{SightingCount, Sightings};
 pub use status::TrackingStatus;
-pub use tracker::{TrackedFrame, Tracker};
+pub use tracker::{Strategy, TrackedFrame, Tracker};

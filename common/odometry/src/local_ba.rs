@@ -8,29 +8,46 @@ use crate::config::MappingConfig;
 use crate::manhattan::WorldManhattan;
 use crate::map::{IdMap, Map};
 use crate::matching::ScalePyramid;
+use crate::observation::{KeypointMeasurement, LINE_INV_SIGMA2, observed_line};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
 use gfs_optim::{
     BaLineObservation, BaLinePrior, BaManhattan, BaPointObservation, BaPose, BaProblem, BaResult,
-    LocalBundleAdjuster as Solver,
+    LocalBundleAdjuster,
 };
-use nalgebra::{Point3, Vector2, Vector3};
+use nalgebra::{Point3, Vector3};
 
 /// Smallest sigma of a line's depth prior, metres: close up, the line fit's own error
 /// (a few pixels of a segment's support) outweighs the depth noise.
 const MIN_LINE_PRIOR_SIGMA_M: f64 = 0.01;
 
-/// Reusable state of the local BA.
-#[derive(Default)]
-pub struct LocalBundleAdjuster {
-    solver: Solver,
+/// The local BA of a new keyframe's neighbourhood in the map, with its reusable state.
+pub struct LocalMapBa {
+    config: MappingConfig,
+    camera: PinholeCamera,
+    scale: ScalePyramid,
+    solver: LocalBundleAdjuster,
     result: BaResult,
     pose_ids: Vec<KeyFrameId>,
     point_ids: Vec<MapPointId>,
     line_ids: Vec<MapLineId>,
 }
 
-impl LocalBundleAdjuster {
+impl LocalMapBa {
+    /// The local BA for `camera` whose keypoints come from the pyramid `scale`.
+    pub fn new(config: MappingConfig, camera: PinholeCamera, scale: ScalePyramid) -> Self {
+        Self {
+            config,
+            camera,
+            scale,
+            solver: LocalBundleAdjuster::default(),
+            result: BaResult::default(),
+            pose_ids: Vec::new(),
+            point_ids: Vec::new(),
+            line_ids: Vec::new(),
+        }
+    }
+
     /// Optimises the neighbourhood of keyframe `kf` in `map`. Every keypoint with a
     /// depth adds the RGB-D depth error (as ORB-SLAM2's local BA, and as tracking).
     ///
@@ -40,24 +57,13 @@ impl LocalBundleAdjuster {
     /// on the synthetic rotation sequence, away from a tracked pose within 1 cm of the
     /// truth, and the next frames followed; held, the ATE went from 12 to 8 mm there,
     /// 4.0 to 2.9 mm on the clean synthetic room, and down on TUM fr1 and 7-Scenes.
-    #[allow(clippy::too_many_arguments)]
-    pub fn run(
-        &mut self,
-        map: &mut Map,
-        kf: KeyFrameId,
-        camera: &PinholeCamera,
-        scale: &ScalePyramid,
-        config: &MappingConfig,
-        manhattan: &WorldManhattan,
-        use_lines: bool,
-    ) {
-        let Some(mut problem) = self.assemble(map, kf, camera, scale, config, manhattan, use_lines)
-        else {
+    pub fn run(&mut self, map: &mut Map, kf: KeyFrameId, manhattan: &WorldManhattan) {
+        let Some(mut problem) = self.assemble(map, kf, manhattan) else {
             return;
         };
         if let Err(e) = self
             .solver
-            .optimize(&mut problem, &config.ba, &mut self.result)
+            .optimize(&mut problem, &self.config.ba, &mut self.result)
         {
             tracing::warn!(keyframe = %kf, "local BA skipped: {e}");
             return;
@@ -87,7 +93,7 @@ impl LocalBundleAdjuster {
             }
         }
         for (endpoints, id) in problem.lines.iter().zip(&self.line_ids) {
-            let axis_angle = config.manhattan_angle_deg.to_radians();
+            let axis_angle = self.config.manhattan_angle_deg.to_radians();
             if let Some(l) = map.line_mut(*id) {
                 l.start = Point3::from(endpoints[0]);
                 l.end = Point3::from(endpoints[1]);
@@ -100,7 +106,7 @@ impl LocalBundleAdjuster {
             .zip(&inliers.point_observations)
         {
             if !inlier {
-                map.remove_point_observation(self.point_ids[obs.point], self.pose_ids[obs.pose]);
+                map.unlink(self.point_ids[obs.point], self.pose_ids[obs.pose]);
             }
         }
         for (obs, inlier) in problem
@@ -109,33 +115,30 @@ impl LocalBundleAdjuster {
             .zip(&inliers.line_observations)
         {
             if !inlier {
-                map.remove_line_observation(self.line_ids[obs.line], self.pose_ids[obs.pose]);
+                map.unlink(self.line_ids[obs.line], self.pose_ids[obs.pose]);
             }
         }
         for id in &self.point_ids {
-            map.update_point_geometry(*id, scale.scale_factor, scale.levels);
+            map.update_point_geometry(*id, self.scale.scale_factor, self.scale.levels);
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn assemble(
+    /// The BA problem of keyframe `kf`'s neighbourhood; `None` when nothing can move
+    /// or nothing is observed.
+    pub fn assemble(
         &mut self,
         map: &Map,
         kf: KeyFrameId,
-        camera: &PinholeCamera,
-        scale: &ScalePyramid,
-        config: &MappingConfig,
         manhattan: &WorldManhattan,
-        use_lines: bool,
     ) -> Option<BaProblem> {
-        let mut problem = BaProblem::new(*camera);
+        let mut problem = BaProblem::new(self.camera);
         self.pose_ids.clear();
         self.point_ids.clear();
         self.line_ids.clear();
         let mut pose_index: IdMap<KeyFrameId, usize> = IdMap::default();
         let local: Vec<KeyFrameId> = std::iter::once(kf)
             .chain(map.connected(kf).into_iter().map(|(k, _)| k))
-            .take(config.ba_keyframes.max(1))
+            .take(self.config.ba_keyframes.max(1))
             .collect();
         for id in &local {
             let keyframe = map.keyframe(*id)?;
@@ -157,17 +160,15 @@ impl LocalBundleAdjuster {
                     self.point_ids.push(*pid);
                 }
             }
-            if use_lines {
-                for lid in keyframe.line_ids.iter().flatten() {
-                    if let (false, Some(l)) = (line_index.contains_key(lid), map.line(*lid)) {
-                        line_index.insert(*lid, problem.lines.len());
-                        problem.lines.push([l.start.coords, l.end.coords]);
-                        self.line_ids.push(*lid);
-                    }
+            for lid in keyframe.line_ids.iter().flatten() {
+                if let (false, Some(l)) = (line_index.contains_key(lid), map.line(*lid)) {
+                    line_index.insert(*lid, problem.lines.len());
+                    problem.lines.push([l.start.coords, l.end.coords]);
+                    self.line_ids.push(*lid);
                 }
             }
         }
-        self.add_fixed_keyframes(map, config, &mut problem, &mut pose_index);
+        self.add_fixed_keyframes(map, &mut problem, &mut pose_index);
         for (k, pid) in self.point_ids.iter().enumerate() {
             let Some(p) = map.point(*pid) else { continue };
             for (obs_kf, index) in &p.observations {
@@ -178,18 +179,19 @@ impl LocalBundleAdjuster {
                 let Some(kp) = keyframe.features.keypoints.get(*index as usize) else {
                     continue;
                 };
+                let m = KeypointMeasurement::new(kp, &self.scale);
                 problem.point_observations.push(BaPointObservation {
                     pose,
                     point: k,
-                    uv: Vector2::new(f64::from(kp.u), f64::from(kp.v)),
-                    inv_sigma2: scale.inv_sigma2(kp.level),
-                    depth: f64::from(kp.depth),
+                    uv: m.uv,
+                    inv_sigma2: m.inv_sigma2,
+                    depth: m.depth,
                 });
             }
         }
         // A line's depth prior: the depth noise at each measured endpoint.
         let prior_sigma =
-            |z: f64| (config.ba.inverse_depth_sigma * z * z).max(MIN_LINE_PRIOR_SIGMA_M);
+            |z: f64| (self.config.ba.inverse_depth_sigma * z * z).max(MIN_LINE_PRIOR_SIGMA_M);
         for (k, lid) in self.line_ids.iter().enumerate() {
             let Some(l) = map.line(*lid) else { continue };
             for (obs_kf, index) in &l.observations {
@@ -197,21 +199,22 @@ impl LocalBundleAdjuster {
                 else {
                     continue;
                 };
-                let Some(observed) = keyframe.features.lines.get(*index as usize) else {
+                let Some(coeffs) = keyframe
+                    .features
+                    .lines
+                    .get(*index as usize)
+                    .and_then(observed_line)
+                else {
                     continue;
                 };
-                let [a, b, c] = observed.segment.line_coefficients();
-                if a == 0.0 && b == 0.0 {
-                    continue;
-                }
                 problem.line_observations.push(BaLineObservation {
                     pose,
                     line: k,
-                    coeffs: Vector3::new(f64::from(a), f64::from(b), f64::from(c)),
-                    inv_sigma2: 1.0,
+                    coeffs,
+                    inv_sigma2: LINE_INV_SIGMA2,
                 });
             }
-            if config.ba.inverse_depth_sigma > 0.0 {
+            if self.config.ba.inverse_depth_sigma > 0.0 {
                 problem.line_priors.push(BaLinePrior {
                     line: k,
                     endpoints: [l.measured[0].coords, l.measured[1].coords],
@@ -225,7 +228,7 @@ impl LocalBundleAdjuster {
                 });
             }
         }
-        self.add_structural_pairs(map, config, &mut problem);
+        self.add_structural_pairs(map, &mut problem);
         if problem.poses.iter().all(|p| p.fixed) || problem.point_observations.is_empty() {
             return None;
         }
@@ -237,7 +240,6 @@ impl LocalBundleAdjuster {
     fn add_fixed_keyframes(
         &mut self,
         map: &Map,
-        config: &MappingConfig,
         problem: &mut BaProblem,
         pose_index: &mut IdMap<KeyFrameId, usize>,
     ) {
@@ -261,7 +263,7 @@ impl LocalBundleAdjuster {
         }
         let mut ranked: Vec<_> = shared.into_iter().collect();
         ranked.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
-        for (kf, _) in ranked.into_iter().take(config.ba_fixed_keyframes) {
+        for (kf, _) in ranked.into_iter().take(self.config.ba_fixed_keyframes) {
             let Some(keyframe) = map.keyframe(kf) else {
                 continue;
             };
@@ -287,7 +289,8 @@ impl LocalBundleAdjuster {
     /// Parallel and perpendicular pairs among lines seen by a same local keyframe
     /// (paper eq. 11). Pairs of two lines tied to Manhattan axes are left to the
     /// Manhattan terms, which already imply them.
-    fn add_structural_pairs(&self, map: &Map, config: &MappingConfig, problem: &mut BaProblem) {
+    fn add_structural_pairs(&self, map: &Map, problem: &mut BaProblem) {
+        let config = &self.config;
         if problem.lines.len() < 2 || config.max_structural_pairs == 0 {
             return;
         }
@@ -338,5 +341,60 @@ impl LocalBundleAdjuster {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::OdometryConfig;
+    use crate::mapper::Mapper;
+    use crate::testing::{Scene, camera, first_keyframe, pose, relinked, scale, tracked};
+
+    #[test]
+    fn a_lone_keyframe_has_nothing_to_adjust() {
+        let config = OdometryConfig::default();
+        let (map, _, kf) = first_keyframe(&Scene::new(50, 4), &config);
+        let mut ba = LocalMapBa::new(config.mapping.clone(), camera(), scale());
+        assert!(ba.assemble(&map, kf, &WorldManhattan::new(false)).is_none());
+    }
+
+    #[test]
+    fn the_problem_holds_the_new_keyframe_fixed_and_its_neighbours_free() {
+        let mut config = OdometryConfig::default();
+        config.mapping.local_ba = false;
+        let scene = Scene::new(100, 6);
+        let (mut map, mut mapper, first): (Map, Mapper, KeyFrameId) =
+            first_keyframe(&scene, &config);
+        let at = pose(0.02, 0.0);
+        let mut frame = tracked(scene.features(1, &at), at);
+        let again = relinked(map.keyframe(first).expect("first"));
+        frame.point_ids = again.point_ids;
+        frame.line_ids = again.line_ids;
+        let kf = mapper.add_keyframe(&mut map, &frame, &mut WorldManhattan::new(false));
+        let mut ba = LocalMapBa::new(config.mapping.clone(), camera(), scale());
+        let problem = ba
+            .assemble(&map, kf, &WorldManhattan::new(false))
+            .expect("two keyframes");
+        let fixed: Vec<bool> = problem.poses.iter().map(|p| p.fixed).collect();
+        assert_eq!(
+            fixed,
+            vec![true, false],
+            "the new keyframe, then its neighbour"
+        );
+        assert_eq!((problem.points.len(), problem.lines.len()), (100, 6));
+        // Every landmark is seen by both keyframes.
+        assert_eq!(problem.point_observations.len(), 200);
+        assert_eq!(problem.line_observations.len(), 12);
+        let depth = problem
+            .point_observations
+            .iter()
+            .filter(|o| o.depth > 0.0)
+            .count();
+        assert_eq!(depth, 200, "depth enters every observation that has one");
+        assert_eq!(problem.line_priors.len(), 6);
+        // Alternately vertical and horizontal segments: parallel and perpendicular pairs.
+        assert!(!problem.parallel.is_empty() && !problem.perpendicular.is_empty());
+        assert!(problem.manhattan.is_empty(), "no world axes known");
     }
 }

@@ -80,3 +80,50 @@ impl WorldManhattan {
             .map(|a| a.matrix().column(k as usize).into_owned())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Translation3, UnitQuaternion};
+
+    fn seen(rotation: Rotation3<f64>, confidence: f32) -> ManhattanAxes {
+        ManhattanAxes {
+            rotation,
+            observed: [true, true, false],
+            support: [0.5, 0.4, 0.0],
+            confidence,
+        }
+    }
+
+    #[test]
+    fn the_first_confident_frame_sets_the_world_axes_in_the_world_frame() {
+        let mut world = WorldManhattan::new(true);
+        let world_from_camera = Isometry3::from_parts(
+            Translation3::new(1.0, 0.0, 0.0),
+            UnitQuaternion::from_euler_angles(0.0, 0.3, 0.0),
+        );
+        world.observe(&world_from_camera, &seen(Rotation3::identity(), 0.2));
+        assert!(world.axes().is_none(), "not confident enough");
+        world.observe(&world_from_camera, &seen(Rotation3::identity(), 0.9));
+        let axes = world.axes().expect("set");
+        assert!(axes.angle_to(&world_from_camera.rotation.to_rotation_matrix()) < 1e-7);
+        // A direction along axis 0 within the angle is tied to it; a diagonal is not.
+        let x = world.axis(0).expect("axis 0");
+        assert_eq!(world.axis_of(&(x * 2.0), 0.1), Some(0));
+        let diagonal = x + world.axis(1).expect("axis 1");
+        assert_eq!(world.axis_of(&diagonal, 0.1), None);
+    }
+
+    #[test]
+    fn later_frames_refine_the_axes_slowly_and_a_disabled_world_learns_nothing() {
+        let mut world = WorldManhattan::new(true);
+        world.observe(&Isometry3::identity(), &seen(Rotation3::identity(), 0.9));
+        let tilted = Rotation3::from_euler_angles(0.0, 0.0, 0.05);
+        world.observe(&Isometry3::identity(), &seen(tilted, 0.9));
+        let moved = world.axes().expect("set").angle();
+        assert!(moved > 0.0 && moved < 0.05 * 2.0 * REFINE_RATE, "{moved}");
+        let mut off = WorldManhattan::new(false);
+        off.observe(&Isometry3::identity(), &seen(Rotation3::identity(), 0.9));
+        assert!(off.axes().is_none());
+    }
+}

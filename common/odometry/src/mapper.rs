@@ -3,9 +3,9 @@
 //! refines the covisible keyframes and their landmarks with reprojection, structural and
 //! Manhattan terms, and redundant keyframes are culled (on points **and** lines).
 
-use crate::config::{KeyframeConfig, MappingConfig};
+use crate::config::{KeyframeConfig, MappingConfig, OdometryConfig};
 use crate::frame::hamming;
-use crate::local_ba::LocalBundleAdjuster;
+use crate::local_ba::LocalMapBa;
 use crate::manhattan::WorldManhattan;
 use crate::map::{KeyFrame, Map, MapLine, MapPoint};
 use crate::matching::ScalePyramid;
@@ -32,6 +32,10 @@ const CHI2_3DOF: f64 = 7.815;
 const FUSE_GRID_CELL_PX: f32 = 10.0;
 /// Covisible keyframes whose points are fused into a new keyframe.
 const FUSE_NEIGHBOURS: usize = 10;
+/// A map line is judged on its found / visible ratio once this many frames predicted
+/// it in view (a recent line has been predicted too few times for the ratio to mean
+/// anything).
+const LINE_CULL_MIN_VISIBLE: u32 = 8;
 
 /// Owns the map-building steps; the map itself is passed in.
 pub struct Mapper {
@@ -40,34 +44,25 @@ pub struct Mapper {
     camera: PinholeCamera,
     scale: ScalePyramid,
     close_depth_m: f32,
-    use_lines: bool,
     recent_points: Vec<MapPointId>,
-    ba: LocalBundleAdjuster,
+    ba: LocalMapBa,
     grid: KeyPointGrid,
     nearby: Vec<usize>,
 }
 
 impl Mapper {
-    /// A mapper for `camera`.
-    pub fn new(
-        config: MappingConfig,
-        keyframes: KeyframeConfig,
-        camera: PinholeCamera,
-        scale: ScalePyramid,
-        close_depth_m: f32,
-        use_lines: bool,
-    ) -> Self {
+    /// A mapper for `camera` whose keypoints come from the pyramid `scale`.
+    pub fn new(config: &OdometryConfig, camera: PinholeCamera, scale: ScalePyramid) -> Self {
         Self {
-            ba: LocalBundleAdjuster::default(),
+            ba: LocalMapBa::new(config.mapping.clone(), camera, scale),
             recent_points: Vec::new(),
             grid: KeyPointGrid::new(camera.width, camera.height, FUSE_GRID_CELL_PX),
             nearby: Vec::new(),
-            config,
-            keyframes,
+            config: config.mapping.clone(),
+            keyframes: config.keyframes.clone(),
             camera,
             scale,
-            close_depth_m,
-            use_lines,
+            close_depth_m: config.tracking.close_depth_m,
         }
     }
 
@@ -94,33 +89,19 @@ impl Mapper {
             camera_from_world: frame.camera_from_world,
             features: frame.features.clone(),
             point_ids: frame.point_ids.clone(),
-            line_ids: if self.use_lines {
-                frame.line_ids.clone()
-            } else {
-                vec![None; frame.line_ids.len()]
-            },
+            line_ids: frame.line_ids.clone(),
         };
         let kf = map.insert_keyframe(keyframe);
         for id in frame.point_ids.iter().flatten() {
-            map.update_point_descriptor(*id);
+            map.update_descriptor(*id);
             map.update_point_geometry(*id, self.scale.scale_factor, self.scale.levels);
         }
         self.create_points(map, kf);
-        if self.use_lines {
-            self.create_lines(map, kf, manhattan);
-        }
+        self.create_lines(map, kf, manhattan);
         self.cull_recent_points(map, kf);
         self.fuse(map, kf);
         if self.config.local_ba {
-            self.ba.run(
-                map,
-                kf,
-                &self.camera,
-                &self.scale,
-                &self.config,
-                manhattan,
-                self.use_lines,
-            );
+            self.ba.run(map, kf, manhattan);
         }
         self.cull_keyframes(map, kf);
         self.bound_map(map, kf);
@@ -175,7 +156,7 @@ impl Mapper {
             new_points.push((i, point));
         }
         for (i, point) in new_points {
-            if let Some(id) = map.insert_point(point, kf, i) {
+            if let Some(id) = map.insert_landmark(point, kf, i) {
                 self.recent_points.push(id);
             }
         }
@@ -213,7 +194,7 @@ impl Mapper {
                 visible: 1,
                 found: 1,
             };
-            map.insert_line(line, kf, j);
+            map.insert_landmark(line, kf, j);
         }
     }
 
@@ -238,7 +219,7 @@ impl Mapper {
                 || (age >= RECENT_POINT_KEYFRAMES
                     && observations <= RECENT_POINT_MAX_WEAK_OBSERVATIONS)
             {
-                map.remove_point(id);
+                map.remove_landmark(id);
             } else if age < RECENT_POINT_KEYFRAMES + 1 {
                 kept.push(id);
             }
@@ -247,12 +228,13 @@ impl Mapper {
         let bad_lines: Vec<_> = map
             .line_ids()
             .filter(|id| {
-                map.line(*id)
-                    .is_some_and(|l| l.visible >= 8 && l.found_ratio() < MIN_FOUND_RATIO)
+                map.line(*id).is_some_and(|l| {
+                    l.visible >= LINE_CULL_MIN_VISIBLE && l.found_ratio() < MIN_FOUND_RATIO
+                })
             })
             .collect();
         for id in bad_lines {
-            map.remove_line(id);
+            map.remove_landmark(id);
         }
     }
 
@@ -336,15 +318,15 @@ impl Mapper {
             }
             match keyframe.point_ids[i] {
                 None => {
-                    map.add_point_observation(id, kf, i);
+                    map.link(id, kf, i);
                 }
                 Some(existing) if existing != id => {
                     let n_existing = map.point(existing).map_or(0, |p| p.observations.len());
                     let n_candidate = map.point(id).map_or(0, |p| p.observations.len());
                     if n_existing >= n_candidate {
-                        map.merge_points(id, existing);
+                        map.merge(id, existing);
                     } else {
-                        map.merge_points(existing, id);
+                        map.merge(existing, id);
                     }
                 }
                 Some(_) => {}
@@ -384,8 +366,7 @@ impl Mapper {
             let points_redundant = points > 0
                 && redundant_points as f32
                     >= self.keyframes.redundant_point_fraction * points as f32;
-            let lines_redundant = !self.use_lines
-                || lines == 0
+            let lines_redundant = lines == 0
                 || redundant_lines as f32 >= self.keyframes.redundant_line_fraction * lines as f32;
             if points_redundant && lines_redundant {
                 map.remove_keyframe(kf);
@@ -416,5 +397,107 @@ impl Mapper {
         for kf in old {
             map.remove_keyframe(kf);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::{Scene, first_keyframe, pose, tracked};
+
+    /// The scene seen again 2 cm to the right, with the even keypoints tracked (linked
+    /// to the first keyframe's points) and the odd ones not.
+    fn second_frame(scene: &Scene, map: &Map, first: KeyFrameId) -> TrackedFrame {
+        let at = pose(0.02, 0.0);
+        let mut frame = tracked(scene.features(1, &at), at);
+        let links = &map.keyframe(first).expect("first").point_ids;
+        for (i, slot) in frame.point_ids.iter_mut().enumerate().step_by(2) {
+            *slot = links[i];
+        }
+        frame
+    }
+
+    #[test]
+    fn the_first_keyframe_maps_every_keypoint_with_depth_and_every_3d_line() {
+        let (map, _, kf) = first_keyframe(&Scene::new(200, 20), &OdometryConfig::default());
+        let keyframe = map.keyframe(kf).expect("keyframe");
+        assert_eq!((map.point_count(), map.line_count()), (200, 20));
+        assert!(keyframe.point_ids.iter().all(Option::is_some));
+        assert!(keyframe.line_ids.iter().all(Option::is_some));
+        // Geometry: each point looks back at the camera, within its scale range.
+        for id in map.point_ids() {
+            let p = map.point(id).expect("point");
+            let distance = p.position.coords.norm();
+            assert!((p.normal + p.position.coords / distance).norm() < 1e-9);
+            assert!(p.min_distance < distance && distance <= p.max_distance + 1e-12);
+        }
+    }
+
+    #[test]
+    fn a_second_keyframe_fuses_its_new_points_into_the_existing_ones() {
+        let config = OdometryConfig::default();
+        let scene = Scene::new(200, 20);
+        let (mut map, mut mapper, first) = first_keyframe(&scene, &config);
+        let frame = second_frame(&scene, &map, first);
+        let kf = mapper.add_keyframe(&mut map, &frame, &mut WorldManhattan::new(false));
+        // The odd keypoints got new points at keyframe creation; fusion merged each
+        // with the first keyframe's point it duplicates.
+        assert_eq!(map.point_count(), 200);
+        for id in map.point_ids() {
+            let observers: Vec<_> = map
+                .point(id)
+                .expect("p")
+                .observations
+                .iter()
+                .map(|o| o.0)
+                .collect();
+            assert!(
+                observers.contains(&first) && observers.contains(&kf),
+                "{id}: {observers:?}"
+            );
+        }
+        assert_eq!(map.connected(kf), vec![(first, 200)]);
+    }
+
+    #[test]
+    fn landmarks_tracking_rarely_finds_are_culled_at_the_next_keyframe() {
+        let config = OdometryConfig::default();
+        let scene = Scene::new(200, 20);
+        let (mut map, mut mapper, first) = first_keyframe(&scene, &config);
+        let keyframe = map.keyframe(first).expect("first");
+        let (point, kept_point) = (
+            keyframe.point_ids[2].unwrap(),
+            keyframe.point_ids[4].unwrap(),
+        );
+        let (line, kept_line) = (keyframe.line_ids[0].unwrap(), keyframe.line_ids[1].unwrap());
+        // Predicted in view often, found once: below MIN_FOUND_RATIO.
+        map.point_mut(point).expect("p").visible = 5;
+        map.line_mut(line).expect("l").visible = LINE_CULL_MIN_VISIBLE;
+        // Too few predictions to judge a line yet.
+        map.line_mut(kept_line).expect("l").visible = LINE_CULL_MIN_VISIBLE - 1;
+        let frame = second_frame(&scene, &map, first);
+        mapper.add_keyframe(&mut map, &frame, &mut WorldManhattan::new(false));
+        assert!(map.point(point).is_none() && map.point(kept_point).is_some());
+        assert!(map.line(line).is_none() && map.line(kept_line).is_some());
+    }
+
+    #[test]
+    fn a_keyframe_whose_points_and_lines_others_see_is_culled() {
+        let mut config = OdometryConfig::default();
+        config.keyframes.redundant_observers = 1;
+        let scene = Scene::new(200, 4);
+        let (mut map, mut mapper, first) = first_keyframe(&scene, &config);
+        let mut ids = vec![first];
+        for k in 1..4 {
+            let at = pose(0.01 * k as f64, 0.0);
+            let mut frame = tracked(scene.features(k, &at), at);
+            frame.point_ids = map.keyframe(first).expect("first").point_ids.clone();
+            frame.line_ids = map.keyframe(first).expect("first").line_ids.clone();
+            ids.push(mapper.add_keyframe(&mut map, &frame, &mut WorldManhattan::new(false)));
+        }
+        // Keyframe 1 is seen through by 2 and 3 (more than one other observer for every
+        // point and line); the first keyframe and the newest are never culled.
+        assert!(map.keyframe(ids[1]).is_none());
+        assert!(map.keyframe(ids[0]).is_some() && map.keyframe(ids[3]).is_some());
     }
 }

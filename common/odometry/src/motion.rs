@@ -51,14 +51,6 @@ impl MotionModel {
         Some(self.velocity?.rotation.scaled_axis() / interval)
     }
 
-    /// Replaces the last pose by a refined estimate of the same frame; the velocity
-    /// is kept.
-    pub fn correct_last(&mut self, camera_from_world: &Isometry3<f64>) {
-        let mut corrected = *camera_from_world;
-        corrected.rotation.renormalize();
-        self.last = Some(corrected);
-    }
-
     /// The predicted `camera_from_world` of the next frame (the last pose when no
     /// velocity is known yet), or `None` before the first frame.
     pub fn predict(&self) -> Option<Isometry3<f64>> {

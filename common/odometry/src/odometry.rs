@@ -85,22 +85,50 @@ impl Odometry {
         let start = Instant::now();
         let output = self.tracking.process(features)?;
         let tracked = start.elapsed();
-        let mut pose = output.pose;
         let mut mapping = None;
         if let Some(request) = output.keyframe {
             let mapping_start = Instant::now();
             let update = self.mapping.insert(request).to_owned();
-            // The local BA refined the keyframe's pose together with the map it moved:
-            // the frame takes that pose.
-            if let Some(refined) = self.tracking.apply(update) {
-                pose.world_from_camera = refined.inverse();
-            }
+            self.tracking.apply(update);
             mapping = Some(mapping_start.elapsed());
         }
         self.timings = OdometryTimings {
             tracking: tracked,
             mapping,
         };
-        Ok(pose)
+        Ok(output.pose)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::{Scene, camera, pose};
+
+    #[test]
+    fn a_scripted_walk_is_tracked_frame_by_frame() {
+        let mut odometry = Odometry::new(
+            OdometryConfig::default(),
+            camera(),
+            1.2,
+            8,
+            &GridConfig::default(),
+        );
+        let scene = Scene::new(200, 20);
+        let mut mapped = 0;
+        for k in 0..40u64 {
+            let truth = pose(0.008 * k as f64, (0.15 * k as f64).to_radians());
+            let out = odometry
+                .process(scene.features(k, &truth))
+                .expect("consistent features");
+            assert!(out.status.is_tracked(), "frame {k}");
+            let error = out.world_from_camera * truth;
+            assert!(error.translation.vector.norm() < 1e-3, "frame {k}: {error}");
+            mapped += usize::from(odometry.timings().mapping.is_some());
+        }
+        assert!(mapped >= 2, "{mapped} keyframes");
+        assert_eq!(odometry.map().keyframe_count(), mapped);
+        let skipped = odometry.skip(FrameId(40), 40.0 / 30.0);
+        assert_eq!(skipped.status, crate::TrackingStatus::Predicted);
     }
 }

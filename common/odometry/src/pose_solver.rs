@@ -4,12 +4,13 @@
 use crate::frame::FrameFeatures;
 use crate::map::Map;
 use crate::matching::ScalePyramid;
+use crate::observation::{KeypointMeasurement, LINE_INV_SIGMA2, observed_line};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{MapLineId, MapPointId};
 use gfs_optim::{
     LineObservation, PointObservation, PoseOptimizerConfig, PoseResult, optimize_pose,
 };
-use nalgebra::{Isometry3, Vector2, Vector3};
+use nalgebra::Isometry3;
 
 /// Inlier counts of a pose optimisation.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -27,10 +28,12 @@ impl Inliers {
     }
 }
 
-/// Reusable buffers of the pose optimisation.
-#[derive(Debug, Default)]
+/// The pose optimisation of a frame, with its reusable buffers.
+#[derive(Debug)]
 pub struct PoseSolver {
     config: PoseOptimizerConfig,
+    camera: PinholeCamera,
+    scale: ScalePyramid,
     points: Vec<PointObservation>,
     point_index: Vec<usize>,
     lines: Vec<LineObservation>,
@@ -39,19 +42,30 @@ pub struct PoseSolver {
 }
 
 impl PoseSolver {
+    /// A solver for `camera` whose keypoints come from the pyramid `scale`.
+    pub fn new(config: PoseOptimizerConfig, camera: PinholeCamera, scale: ScalePyramid) -> Self {
+        Self {
+            config,
+            camera,
+            scale,
+            points: Vec::new(),
+            point_index: Vec::new(),
+            lines: Vec::new(),
+            line_index: Vec::new(),
+            result: PoseResult::default(),
+        }
+    }
+
     /// Optimises `camera_from_world` from the matches in `point_ids` / `line_ids`; the
     /// outliers' entries are cleared. Every keypoint with a depth adds the RGB-D depth
     /// error, as ORB-SLAM2's pose optimisation uses the stereo error for every keypoint
     /// with a right coordinate (its inverse-depth form weighs far points little); without
     /// it, distant points leave the rotation-translation ambiguity of a narrow view open.
     /// Returns the inlier counts.
-    #[allow(clippy::too_many_arguments)]
     pub fn solve(
         &mut self,
         map: &Map,
         frame: &FrameFeatures,
-        camera: &PinholeCamera,
-        scale: &ScalePyramid,
         camera_from_world: &mut Isometry3<f64>,
         point_ids: &mut [Option<MapPointId>],
         line_ids: &mut [Option<MapLineId>],
@@ -63,11 +77,12 @@ impl PoseSolver {
             else {
                 continue;
             };
+            let m = KeypointMeasurement::new(kp, &self.scale);
             self.points.push(PointObservation {
                 point_in_world: point.position.coords,
-                uv: Vector2::new(f64::from(kp.u), f64::from(kp.v)),
-                inv_sigma2: scale.inv_sigma2(kp.level),
-                depth: f64::from(kp.depth),
+                uv: m.uv,
+                inv_sigma2: m.inv_sigma2,
+                depth: m.depth,
             });
             self.point_index.push(i);
         }
@@ -78,14 +93,13 @@ impl PoseSolver {
             else {
                 continue;
             };
-            let [a, b, c] = observed.segment.line_coefficients();
-            if a == 0.0 && b == 0.0 {
+            let Some(coeffs) = observed_line(observed) else {
                 continue;
-            }
+            };
             self.lines.push(LineObservation {
                 endpoints_in_world: [line.start.coords, line.end.coords],
-                coeffs: Vector3::new(f64::from(a), f64::from(b), f64::from(c)),
-                inv_sigma2: 1.0,
+                coeffs,
+                inv_sigma2: LINE_INV_SIGMA2,
             });
             self.line_index.push(j);
         }
@@ -93,7 +107,7 @@ impl PoseSolver {
             return Inliers::default();
         }
         optimize_pose(
-            camera,
+            &self.camera,
             camera_from_world,
             &self.points,
             &self.lines,
@@ -115,5 +129,58 @@ impl PoseSolver {
             points: self.result.num_point_inliers,
             lines: self.result.num_line_inliers,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::OdometryConfig;
+    use crate::testing::{Scene, camera, first_keyframe, pose, scale};
+
+    #[test]
+    fn the_pose_is_recovered_from_a_wrong_start_and_a_wrong_match_is_unlinked() {
+        let scene = Scene::new(150, 10);
+        let (map, _, kf) = first_keyframe(&scene, &OdometryConfig::default());
+        let truth = pose(0.05, 0.02);
+        let frame = scene.features(1, &truth);
+        let keyframe = map.keyframe(kf).expect("kf");
+        let mut point_ids = keyframe.point_ids.clone();
+        let mut line_ids = keyframe.line_ids.clone();
+        // Keypoint 0 linked to the point of keypoint 100: an outlier.
+        point_ids[0] = keyframe.point_ids[100];
+        let mut solver = PoseSolver::new(PoseOptimizerConfig::default(), camera(), scale());
+        let mut camera_from_world = pose(0.0, 0.0);
+        let inliers = solver.solve(
+            &map,
+            &frame,
+            &mut camera_from_world,
+            &mut point_ids,
+            &mut line_ids,
+        );
+        let error = camera_from_world * truth.inverse();
+        assert!(error.translation.vector.norm() < 1e-6, "{error}");
+        assert!(error.rotation.angle() < 1e-6);
+        assert_eq!(point_ids[0], None, "the outlier is unlinked");
+        assert_eq!((inliers.points, inliers.lines), (149, 10));
+        assert_eq!(inliers.total(), 159);
+    }
+
+    #[test]
+    fn no_match_leaves_the_pose_alone() {
+        let scene = Scene::new(10, 0);
+        let (map, _, _) = first_keyframe(&scene, &OdometryConfig::default());
+        let frame = scene.features(1, &pose(0.0, 0.0));
+        let mut solver = PoseSolver::new(PoseOptimizerConfig::default(), camera(), scale());
+        let start = pose(0.1, 0.0);
+        let mut camera_from_world = start;
+        let inliers = solver.solve(
+            &map,
+            &frame,
+            &mut camera_from_world,
+            &mut [None; 10],
+            &mut [],
+        );
+        assert_eq!((inliers, camera_from_world), (Inliers::default(), start));
     }
 }

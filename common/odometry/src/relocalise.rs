@@ -80,3 +80,26 @@ pub fn relocalise(
         inliers,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::OdometryConfig;
+    use crate::testing::{Scene, camera, first_keyframe, pose};
+
+    #[test]
+    fn a_lost_frame_is_found_in_the_map_by_its_descriptors_alone() {
+        let scene = Scene::new(150, 0);
+        let (map, _, _) = first_keyframe(&scene, &OdometryConfig::default());
+        let truth = pose(0.2, 10f64.to_radians());
+        let frame = scene.features(9, &truth);
+        let found = relocalise(&map, &frame, &camera(), 40, 9).expect("relocalised");
+        let error = found.camera_from_world * truth.inverse();
+        assert!(error.translation.vector.norm() < 1e-6, "{error}");
+        let in_view = frame.keypoints.iter().filter(|k| k.depth > 0.0).count();
+        assert_eq!(found.inliers, in_view);
+        assert_eq!(found.point_ids.iter().flatten().count(), in_view);
+        // Asking for more inliers than there are keypoints in view fails.
+        assert!(relocalise(&map, &frame, &camera(), in_view + 1, 9).is_none());
+    }
+}

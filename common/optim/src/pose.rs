@@ -40,7 +40,7 @@ pub struct LineObservation {
     pub inv_sigma2: f64,
 }
 
-/// Parameters of [`optimize_pose`] (TOML table `[pose_optimizer]`).
+/// Parameters of [`optimize_pose`] (the odometry's TOML table `[tracking.pose]`).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PoseOptimizerConfig {

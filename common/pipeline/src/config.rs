@@ -309,6 +309,28 @@ mod tests {
     }
 
     #[test]
+    fn the_tracker_pose_optimiser_is_configured_by_tracking_pose() {
+        let cam = "[camera]\nfx=5.0\nfy=5.0\ncx=1.0\ncy=1.0\nwidth=4\nheight=4\n";
+        let text = format!(
+            "{cam}[tracking]\nrelocalisation_min_inliers = 30\n[tracking.pose]\nrounds = 3\nbf = 30.0\n"
+        );
+        let tracking = Config::from_toml(&text, "t.toml")
+            .unwrap()
+            .odometry()
+            .tracking;
+        assert_eq!((tracking.pose.rounds, tracking.pose.bf), (3, 30.0));
+        assert_eq!(
+            tracking.pose.iterations_per_round, 10,
+            "the rest keeps its default"
+        );
+        assert_eq!(tracking.relocalisation_min_inliers, 30);
+        let e = Config::from_toml(&format!("{cam}[tracking.pose]\nround = 3\n"), "t.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("round"), "{e}");
+    }
+
+    #[test]
     fn the_dataset_name_selects_the_camera() {
         assert_eq!(
             built_in_for(Path::new("/x/tum_fr1_rpy_head300")),

@@ -51,8 +51,7 @@ fn request() -> KeyFrameRequest {
         },
         manhattan: WorldManhattan::new(true),
         reset: false,
-        point_sightings: Vec::new(),
-        line_sightings: Vec::new(),
+        sightings: Default::default(),
     }
 }
 

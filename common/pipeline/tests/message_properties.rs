@@ -9,7 +9,8 @@ use gfs_core::ids::{FrameId, MapLineId, MapPointId};
 use gfs_core::rng::SplitMix64;
 use gfs_ipc::{MAX_VARIABLE_MESSAGE_BYTES, decode_message, encode_message};
 use gfs_lines::{DetectedLine, Line3, Segment};
-use gfs_odometry::session::{KeyFrameRequest, MapUpdate, MappingSession, SightingCount};
+use gfs_odometry::Sightings;
+use gfs_odometry::session::{KeyFrameRequest, MapUpdate, MappingSession};
 use gfs_odometry::{FrameFeatures, OdometryConfig, TrackedFrame, TrackingStatus, WorldManhattan};
 use gfs_points::KeyPoint;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
@@ -87,12 +88,7 @@ fn request(rng: &mut SplitMix64, seq: u64) -> KeyFrameRequest {
         },
         manhattan: WorldManhattan::new(true),
         reset: false,
-        point_sightings: (0..rng.below(5))
-            .map(|i| sighting(rng, MapPointId(i)))
-            .collect(),
-        line_sightings: (0..rng.below(5))
-            .map(|i| sighting(rng, MapLineId(i)))
-            .collect(),
+        sightings: sightings(rng),
     }
 }
 
@@ -151,13 +147,29 @@ fn break_request(r: &mut KeyFrameRequest, how: u64, rng: &mut SplitMix64) -> boo
     }
 }
 
-fn sighting<I>(rng: &mut SplitMix64, id: I) -> SightingCount<I> {
-    let visible = rng.below(10) as u32;
-    SightingCount {
-        id,
-        visible,
-        found: rng.below(u64::from(visible) + 1) as u32,
+/// Up to four points and four lines, each predicted in view up to 9 times and found at
+/// most as often.
+fn sightings(rng: &mut SplitMix64) -> Sightings {
+    let mut sightings = Sightings::default();
+    for i in 0..rng.below(5) {
+        let visible = rng.below(10);
+        for _ in 0..visible {
+            sightings.points_visible(&[MapPointId(i)]);
+        }
+        for _ in 0..rng.below(visible + 1) {
+            sightings.points_found([&MapPointId(i)]);
+        }
     }
+    for i in 0..rng.below(5) {
+        let visible = rng.below(10);
+        for _ in 0..visible {
+            sightings.lines_visible(&[MapLineId(i)]);
+        }
+        for _ in 0..rng.below(visible + 1) {
+            sightings.lines_found([&MapLineId(i)]);
+        }
+    }
+    sightings
 }
 
 fn round_trip<T: serde::Serialize + serde::de::DeserializeOwned>(value: &T) -> T {

@@ -4,10 +4,13 @@
 use gfs_core::Image;
 use gfs_core::camera::PinholeCamera;
 use gfs_planes::{ManhattanEstimator, PlaneConfig, PlaneExtractor};
-use std::path::Path;
+use std::path::PathBuf;
 use std::time::Instant;
 
-const DATASET: &str = "/work/shared/data/tum_fr1_rpy_head300";
+/// The sequence in the `shared` folder beside the repository.
+fn dataset() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/tum_fr1_rpy_head300")
+}
 /// TUM depth PNG: 16-bit value / 5000 = metres.
 const DEPTH_SCALE: f32 = 5000.0;
 
@@ -22,9 +25,12 @@ fn median_p90(v: &mut [f64]) -> (f64, f64) {
 
 #[test]
 fn tum_fr1_rpy_timings_and_planes() {
-    let dir = Path::new(DATASET).join("depth");
+    let dir = dataset().join("depth");
     let Ok(entries) = std::fs::read_dir(&dir) else {
-        println!("skipped: {} is absent", dir.display());
+        println!(
+            "SKIPPED tum_fr1_rpy_timings_and_planes: {} is absent (needs ../shared/data beside the repository)",
+            dir.display()
+        );
         return;
     };
     let mut files: Vec<_> = entries.filter_map(|e| Some(e.ok()?.path())).collect();

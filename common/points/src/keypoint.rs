@@ -3,7 +3,7 @@
 
 /// A 256-bit rBRIEF descriptor. Bit `i` (word `i / 64`, bit `i % 64`) is test `i` of the
 /// pattern; read as little-endian bytes it is OpenCV's `uchar[32]` layout.
-pub type Descriptor = [u64; 4];
+pub use gfs_core::descriptor::Descriptor;
 
 /// One ORB keypoint.
 #[repr(C)]

@@ -69,9 +69,14 @@ fn features_cover_weak_texture_beside_strong_texture() {
 
 #[test]
 fn features_cover_a_real_frame() {
-    let dir = std::path::Path::new("/work/shared/data/tum_fr1_rpy_head300/rgb");
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        println!("skipped: {} is absent", dir.display());
+    // The sequence in the `shared` folder beside the repository.
+    let dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/data/tum_fr1_rpy_head300/rgb");
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        println!(
+            "SKIPPED features_cover_a_real_frame: {} is absent (needs ../shared/data beside the repository)",
+            dir.display()
+        );
         return;
     };
     let mut files: Vec<_> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();

@@ -11,8 +11,8 @@ impl Map {
     /// for exactly that many entries.
     pub fn canonicalise(&mut self) {
         canonicalise_arena(&mut self.keyframes);
-        canonicalise_arena(&mut self.points);
-        canonicalise_arena(&mut self.lines);
+        canonicalise_arena(&mut self.points.items);
+        canonicalise_arena(&mut self.lines.items);
     }
 }
 

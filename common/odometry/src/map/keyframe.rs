@@ -9,7 +9,8 @@ use nalgebra::Isometry3;
 pub struct KeyFrame {
     /// Its id.
     pub id: KeyFrameId,
-    /// `camera_from_world` (T_cw), refined by the local BA.
+    /// `camera_from_world` (T_cw): the tracked pose, refined by the local BAs of the
+    /// newer keyframes it is a neighbour of (its own BA holds it fixed).
     pub camera_from_world: Isometry3<f64>,
     /// The features of the frame.
     pub features: FrameFeatures,

@@ -5,33 +5,33 @@
 mod arena;
 mod canonical;
 mod keyframe;
+mod landmark;
 mod line;
 mod point;
+#[cfg(test)]
+mod tests;
 
 pub use arena::IdMap;
 pub use keyframe::KeyFrame;
+pub use landmark::{Landmark, LandmarkId, Store};
 pub use line::MapLine;
 pub use point::MapPoint;
 
-use crate::frame::{Descriptor, hamming};
 use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
 
 /// Landmarks two keyframes must share to be connected in the covisibility graph
 /// (ORB-SLAM2 `KeyFrame::UpdateConnections`: 15).
 pub const COVISIBILITY_MIN_SHARED: u32 = 15;
-use nalgebra::Rotation3;
 
-/// Keyframes, landmarks and their links.
+/// Keyframes, landmarks and their links. Invariant: keyframe `k`'s slot `i` of a kind
+/// holds landmark `l` exactly when `l`'s observations hold `(k, i)`; a landmark without
+/// observations is removed.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Map {
     keyframes: IdMap<KeyFrameId, KeyFrame>,
-    points: IdMap<MapPointId, MapPoint>,
-    lines: IdMap<MapLineId, MapLine>,
+    points: Store<MapPoint>,
+    lines: Store<MapLine>,
     next_keyframe: u64,
-    next_point: u64,
-    next_line: u64,
-    /// Manhattan axes of the world (columns), once the scene has shown them.
-    pub manhattan: Option<Rotation3<f64>>,
 }
 
 impl Map {
@@ -41,179 +41,112 @@ impl Map {
     }
 
     /// Adds a keyframe (its `id` field is overwritten) and returns its id. Links in
-    /// `point_ids` / `line_ids` must already exist; observations are added for them.
+    /// its slots to landmarks that exist get observations; the others are cleared.
     pub fn insert_keyframe(&mut self, mut keyframe: KeyFrame) -> KeyFrameId {
         let id = KeyFrameId(self.next_keyframe);
         self.next_keyframe += 1;
         keyframe.id = id;
-        for (i, pid) in keyframe.point_ids.iter_mut().enumerate() {
-            match pid.and_then(|p| self.points.get_mut(&p)) {
-                Some(p) => p.observations.push((id, i as u32)),
-                None => *pid = None,
-            }
-        }
-        for (i, lid) in keyframe.line_ids.iter_mut().enumerate() {
-            match lid.and_then(|l| self.lines.get_mut(&l)) {
-                Some(l) => l.observations.push((id, i as u32)),
-                None => *lid = None,
-            }
-        }
+        self.observe_slots::<MapPoint>(&mut keyframe);
+        self.observe_slots::<MapLine>(&mut keyframe);
         self.keyframes.insert(id, keyframe);
         id
     }
 
-    /// Adds a map point observed by keypoint `index` of keyframe `kf`.
-    pub fn insert_point(
+    fn observe_slots<L: Landmark>(&mut self, keyframe: &mut KeyFrame) {
+        let (_, store) = L::store_mut(self);
+        let kf = keyframe.id;
+        for (i, slot) in L::slots_mut(keyframe).iter_mut().enumerate() {
+            match slot.and_then(|l| store.items.get_mut(&l)) {
+                Some(l) => l.observations_mut().push((kf, i as u32)),
+                None => *slot = None,
+            }
+        }
+    }
+
+    /// Adds a landmark observed by feature `index` of keyframe `kf`; `None` when the
+    /// keyframe or the feature does not exist or the feature already has a landmark.
+    pub fn insert_landmark<L: Landmark>(
         &mut self,
-        mut point: MapPoint,
+        mut landmark: L,
         kf: KeyFrameId,
         index: usize,
-    ) -> Option<MapPointId> {
-        let keyframe = self.keyframes.get_mut(&kf)?;
-        let slot = keyframe.point_ids.get_mut(index)?;
+    ) -> Option<L::Id> {
+        let (keyframes, store) = L::store_mut(self);
+        let slot = L::slots_mut(keyframes.get_mut(&kf)?).get_mut(index)?;
         if slot.is_some() {
             return None;
         }
-        let id = MapPointId(self.next_point);
-        self.next_point += 1;
+        let id = L::id(store.next);
+        store.next += 1;
         *slot = Some(id);
-        point.observations = vec![(kf, index as u32)];
-        point.first_kf = kf;
-        self.points.insert(id, point);
+        *landmark.observations_mut() = vec![(kf, index as u32)];
+        landmark.set_first_kf(kf);
+        store.items.insert(id, landmark);
         Some(id)
     }
 
-    /// Adds a map line observed by line `index` of keyframe `kf`.
-    pub fn insert_line(
-        &mut self,
-        mut line: MapLine,
-        kf: KeyFrameId,
-        index: usize,
-    ) -> Option<MapLineId> {
-        let keyframe = self.keyframes.get_mut(&kf)?;
-        let slot = keyframe.line_ids.get_mut(index)?;
-        if slot.is_some() {
-            return None;
-        }
-        let id = MapLineId(self.next_line);
-        self.next_line += 1;
-        *slot = Some(id);
-        line.observations = vec![(kf, index as u32)];
-        line.first_kf = kf;
-        self.lines.insert(id, line);
-        Some(id)
-    }
-
-    /// Links keypoint `index` of keyframe `kf` to an existing map point.
-    pub fn add_point_observation(
-        &mut self,
-        point: MapPointId,
-        kf: KeyFrameId,
-        index: usize,
-    ) -> bool {
-        let (Some(keyframe), Some(p)) = (self.keyframes.get_mut(&kf), self.points.get_mut(&point))
+    /// Links feature `index` of keyframe `kf` to an existing landmark; false when one
+    /// of them does not exist or the feature is linked already.
+    pub fn link<I: LandmarkId>(&mut self, id: I, kf: KeyFrameId, index: usize) -> bool {
+        let (keyframes, store) = I::Landmark::store_mut(self);
+        let (Some(keyframe), Some(landmark)) = (keyframes.get_mut(&kf), store.items.get_mut(&id))
         else {
             return false;
         };
-        match keyframe.point_ids.get_mut(index) {
+        match I::Landmark::slots_mut(keyframe).get_mut(index) {
             Some(slot @ None) => {
-                *slot = Some(point);
-                p.observations.push((kf, index as u32));
+                *slot = Some(id);
+                landmark.observations_mut().push((kf, index as u32));
                 true
             }
             _ => false,
         }
     }
 
-    /// Links line `index` of keyframe `kf` to an existing map line.
-    pub fn add_line_observation(&mut self, line: MapLineId, kf: KeyFrameId, index: usize) -> bool {
-        let (Some(keyframe), Some(l)) = (self.keyframes.get_mut(&kf), self.lines.get_mut(&line))
-        else {
-            return false;
-        };
-        match keyframe.line_ids.get_mut(index) {
-            Some(slot @ None) => {
-                *slot = Some(line);
-                l.observations.push((kf, index as u32));
-                true
-            }
-            _ => false,
-        }
-    }
-
-    /// Unlinks keyframe `kf` from map point `point` (an outlier observation); the point
+    /// Unlinks keyframe `kf` from a landmark (an outlier observation); the landmark
     /// goes when no observation is left.
-    pub fn remove_point_observation(&mut self, point: MapPointId, kf: KeyFrameId) {
-        let Some(p) = self.points.get_mut(&point) else {
+    pub fn unlink<I: LandmarkId>(&mut self, id: I, kf: KeyFrameId) {
+        let (keyframes, store) = I::Landmark::store_mut(self);
+        let Some(landmark) = store.items.get_mut(&id) else {
             return;
         };
-        let Some(pos) = p.observations.iter().position(|(k, _)| *k == kf) else {
+        let observations = landmark.observations_mut();
+        let Some(pos) = observations.iter().position(|(k, _)| *k == kf) else {
             return;
         };
-        let (_, index) = p.observations.swap_remove(pos);
-        let empty = p.observations.is_empty();
-        if let Some(slot) = self
-            .keyframes
+        let (_, index) = observations.swap_remove(pos);
+        let empty = observations.is_empty();
+        if let Some(slot) = keyframes
             .get_mut(&kf)
-            .and_then(|k| k.point_ids.get_mut(index as usize))
+            .and_then(|k| I::Landmark::slots_mut(k).get_mut(index as usize))
         {
             *slot = None;
         }
         if empty {
-            self.points.remove(&point);
+            store.items.remove(&id);
         }
     }
 
-    /// Unlinks keyframe `kf` from map line `line`; the line goes when no observation is
-    /// left.
-    pub fn remove_line_observation(&mut self, line: MapLineId, kf: KeyFrameId) {
-        let Some(l) = self.lines.get_mut(&line) else {
+    /// Removes a landmark and every link to it.
+    pub fn remove_landmark<I: LandmarkId>(&mut self, id: I) {
+        let (keyframes, store) = I::Landmark::store_mut(self);
+        let Some(landmark) = store.items.remove(&id) else {
             return;
         };
-        let Some(pos) = l.observations.iter().position(|(k, _)| *k == kf) else {
-            return;
-        };
-        let (_, index) = l.observations.swap_remove(pos);
-        let empty = l.observations.is_empty();
-        if let Some(slot) = self
-            .keyframes
-            .get_mut(&kf)
-            .and_then(|k| k.line_ids.get_mut(index as usize))
-        {
-            *slot = None;
-        }
-        if empty {
-            self.lines.remove(&line);
-        }
-    }
-
-    /// Removes a map point and every link to it.
-    pub fn remove_point(&mut self, id: MapPointId) {
-        if let Some(p) = self.points.remove(&id) {
-            for (kf, index) in p.observations {
-                if let Some(slot) = self
-                    .keyframes
-                    .get_mut(&kf)
-                    .and_then(|k| k.point_ids.get_mut(index as usize))
-                {
-                    *slot = None;
-                }
+        for (kf, index) in landmark.observations() {
+            if let Some(slot) = keyframes
+                .get_mut(kf)
+                .and_then(|k| I::Landmark::slots_mut(k).get_mut(*index as usize))
+            {
+                *slot = None;
             }
         }
     }
 
-    /// Removes a map line and every link to it.
-    pub fn remove_line(&mut self, id: MapLineId) {
-        if let Some(l) = self.lines.remove(&id) {
-            for (kf, index) in l.observations {
-                if let Some(slot) = self
-                    .keyframes
-                    .get_mut(&kf)
-                    .and_then(|k| k.line_ids.get_mut(index as usize))
-                {
-                    *slot = None;
-                }
-            }
+    /// Removes every keyframe, and with them every landmark (a new local map starts).
+    pub fn clear_keyframes(&mut self) {
+        for kf in self.keyframe_ids() {
+            self.remove_keyframe(kf);
         }
     }
 
@@ -222,55 +155,63 @@ impl Map {
         let Some(kf) = self.keyframes.remove(&id) else {
             return;
         };
-        for pid in kf.point_ids.iter().flatten() {
-            if let Some(p) = self.points.get_mut(pid) {
-                p.observations.retain(|(k, _)| *k != id);
-                if p.observations.is_empty() {
-                    self.points.remove(pid);
-                } else if p.first_kf == id {
-                    p.first_kf = p.observations[0].0;
-                }
-            }
-        }
-        for lid in kf.line_ids.iter().flatten() {
-            if let Some(l) = self.lines.get_mut(lid) {
-                l.observations.retain(|(k, _)| *k != id);
-                if l.observations.is_empty() {
-                    self.lines.remove(lid);
-                } else if l.first_kf == id {
-                    l.first_kf = l.observations[0].0;
-                }
-            }
-        }
+        forget_keyframe::<MapPoint>(&mut self.points, &kf);
+        forget_keyframe::<MapLine>(&mut self.lines, &kf);
     }
 
-    /// Merges map point `from` into `into`: observations move, `from` disappears. When
-    /// both are seen by the same keyframe, the link of `into` is kept.
-    pub fn merge_points(&mut self, from: MapPointId, into: MapPointId) {
-        if from == into || !self.points.contains_key(&into) {
+    /// Merges landmark `from` into `into`: observations move, `from` disappears, its
+    /// sighting counts add up. When both are seen by the same keyframe, the link of
+    /// `into` is kept.
+    pub fn merge<I: LandmarkId>(&mut self, from: I, into: I) {
+        let (keyframes, store) = I::Landmark::store_mut(self);
+        if from == into || !store.items.contains_key(&into) {
             return;
         }
-        let Some(old) = self.points.remove(&from) else {
+        let Some(mut old) = store.items.remove(&from) else {
             return;
         };
-        for (kf, index) in old.observations {
-            let Some(keyframe) = self.keyframes.get_mut(&kf) else {
+        for &(kf, index) in old.observations() {
+            let Some(keyframe) = keyframes.get_mut(&kf) else {
                 continue;
             };
-            let already = keyframe.point_ids.contains(&Some(into));
-            let slot = &mut keyframe.point_ids[index as usize];
+            let slots = I::Landmark::slots_mut(keyframe);
+            let already = slots.contains(&Some(into));
+            let slot = &mut slots[index as usize];
             if already {
                 *slot = None;
             } else {
                 *slot = Some(into);
-                if let Some(p) = self.points.get_mut(&into) {
-                    p.observations.push((kf, index));
+                if let Some(l) = store.items.get_mut(&into) {
+                    l.observations_mut().push((kf, index));
                 }
             }
         }
-        if let Some(p) = self.points.get_mut(&into) {
-            p.visible += old.visible;
-            p.found += old.found;
+        let (visible, found) = old.sightings_mut();
+        let (visible, found) = (*visible, *found);
+        if let Some(l) = store.items.get_mut(&into) {
+            let (v, f) = l.sightings_mut();
+            *v += visible;
+            *f += found;
+        }
+    }
+
+    /// Picks as the landmark's descriptor the observation with the least median
+    /// Hamming distance to the others (ORB-SLAM's distinctive descriptor).
+    pub fn update_descriptor<I: LandmarkId>(&mut self, id: I) {
+        let Some(landmark) = I::Landmark::store(self).items.get(&id) else {
+            return;
+        };
+        let descriptors: Vec<_> = landmark
+            .observations()
+            .iter()
+            .filter_map(|(kf, i)| {
+                I::Landmark::feature_descriptor(self.keyframes.get(kf)?, *i as usize)
+            })
+            .collect();
+        if let Some(best) = landmark::most_central(&descriptors)
+            && let Some(l) = I::Landmark::store_mut(self).1.items.get_mut(&id)
+        {
+            *l.descriptor_mut() = best;
         }
     }
 
@@ -284,24 +225,39 @@ impl Map {
         self.keyframes.get_mut(&id)
     }
 
-    /// A map point by id.
-    pub fn point(&self, id: MapPointId) -> Option<&MapPoint> {
-        self.points.get(&id)
+    /// The map points.
+    pub fn points(&self) -> &Store<MapPoint> {
+        &self.points
     }
 
-    /// A map point by id, mutable.
+    /// The map lines.
+    pub fn lines(&self) -> &Store<MapLine> {
+        &self.lines
+    }
+
+    /// A landmark of any kind by id, mutable (its links stay as they are).
+    pub fn landmark_mut<I: LandmarkId>(&mut self, id: I) -> Option<&mut I::Landmark> {
+        I::Landmark::store_mut(self).1.items.get_mut(&id)
+    }
+
+    /// A map point by id.
+    pub fn point(&self, id: MapPointId) -> Option<&MapPoint> {
+        self.points.get(id)
+    }
+
+    /// A map point by id, mutable (its links stay as they are).
     pub fn point_mut(&mut self, id: MapPointId) -> Option<&mut MapPoint> {
-        self.points.get_mut(&id)
+        self.points.items.get_mut(&id)
     }
 
     /// A map line by id.
     pub fn line(&self, id: MapLineId) -> Option<&MapLine> {
-        self.lines.get(&id)
+        self.lines.get(id)
     }
 
-    /// A map line by id, mutable.
+    /// A map line by id, mutable (its links stay as they are).
     pub fn line_mut(&mut self, id: MapLineId) -> Option<&mut MapLine> {
-        self.lines.get_mut(&id)
+        self.lines.items.get_mut(&id)
     }
 
     /// All keyframes (arbitrary order).
@@ -333,12 +289,12 @@ impl Map {
 
     /// All map point ids (arbitrary order).
     pub fn point_ids(&self) -> impl Iterator<Item = MapPointId> + '_ {
-        self.points.keys().copied()
+        self.points.ids()
     }
 
     /// All map line ids (arbitrary order).
     pub fn line_ids(&self) -> impl Iterator<Item = MapLineId> + '_ {
-        self.lines.keys().copied()
+        self.lines.ids()
     }
 
     /// Keyframes sharing landmarks with `kf`, with the number shared (points + lines),
@@ -352,13 +308,13 @@ impl Map {
             .point_ids
             .iter()
             .flatten()
-            .filter_map(|p| self.points.get(p))
+            .filter_map(|p| self.points.get(*p))
             .map(|p| &p.observations);
         let line_obs = keyframe
             .line_ids
             .iter()
             .flatten()
-            .filter_map(|l| self.lines.get(l))
+            .filter_map(|l| self.lines.get(*l))
             .map(|l| &l.observations);
         for observations in point_obs.chain(line_obs) {
             for (other, _) in observations {
@@ -388,56 +344,9 @@ impl Map {
         all
     }
 
-    /// Picks as the point's descriptor the observation with the least median Hamming
-    /// distance to the others (ORB-SLAM's distinctive descriptor).
-    pub fn update_point_descriptor(&mut self, id: MapPointId) {
-        let Some(p) = self.points.get(&id) else {
-            return;
-        };
-        let descriptors: Vec<Descriptor> = p
-            .observations
-            .iter()
-            .filter_map(|(kf, i)| {
-                self.keyframes
-                    .get(kf)?
-                    .features
-                    .point_descriptors
-                    .get(*i as usize)
-                    .copied()
-            })
-            .collect();
-        if let Some(best) = most_central(&descriptors)
-            && let Some(p) = self.points.get_mut(&id)
-        {
-            p.descriptor = best;
-        }
-    }
-
-    /// Like [`Self::update_point_descriptor`], for a map line's LBD descriptor.
-    pub fn update_line_descriptor(&mut self, id: MapLineId) {
-        let Some(l) = self.lines.get(&id) else { return };
-        let descriptors: Vec<Descriptor> = l
-            .observations
-            .iter()
-            .filter_map(|(kf, i)| {
-                self.keyframes
-                    .get(kf)?
-                    .features
-                    .line_descriptors
-                    .get(*i as usize)
-                    .copied()
-            })
-            .collect();
-        if let Some(best) = most_central(&descriptors)
-            && let Some(l) = self.lines.get_mut(&id)
-        {
-            l.descriptor = best;
-        }
-    }
-
     /// Recomputes the viewing direction and the scale-invariance distances of a point.
     pub fn update_point_geometry(&mut self, id: MapPointId, scale_factor: f64, levels: u8) {
-        let Some(p) = self.points.get(&id) else {
+        let Some(p) = self.points.get(id) else {
             return;
         };
         let mut normal = nalgebra::Vector3::zeros();
@@ -461,7 +370,7 @@ impl Map {
         let level_scale = scale_factor.powi(i32::from(level));
         let max_distance = distance * level_scale;
         let min_distance = max_distance / scale_factor.powi(i32::from(levels.saturating_sub(1)));
-        if let Some(p) = self.points.get_mut(&id) {
+        if let Some(p) = self.points.items.get_mut(&id) {
             p.normal = normal.try_normalize(1e-12).unwrap_or(p.normal);
             p.max_distance = max_distance;
             p.min_distance = min_distance;
@@ -469,23 +378,19 @@ impl Map {
     }
 }
 
-/// The descriptor with the least median distance to the others.
-fn most_central(descriptors: &[Descriptor]) -> Option<Descriptor> {
-    let n = descriptors.len();
-    if n <= 2 {
-        return descriptors.first().copied();
-    }
-    let mut row = vec![0u32; n];
-    let mut best = (u32::MAX, 0);
-    for (i, a) in descriptors.iter().enumerate() {
-        for (j, b) in descriptors.iter().enumerate() {
-            row[j] = hamming(a, b);
-        }
-        row.sort_unstable();
-        let median = row[(n - 1) / 2];
-        if median < best.0 {
-            best = (median, i);
+/// Drops the observations of a removed keyframe from its landmarks of kind `L`; a
+/// landmark left without any goes, and one it created is re-anchored to its oldest
+/// remaining observer.
+fn forget_keyframe<L: Landmark>(store: &mut Store<L>, keyframe: &KeyFrame) {
+    for id in L::slots(keyframe).iter().flatten() {
+        if let Some(l) = store.items.get_mut(id) {
+            l.observations_mut().retain(|(k, _)| *k != keyframe.id);
+            if l.observations().is_empty() {
+                store.items.remove(id);
+            } else if l.first_kf() == keyframe.id {
+                let first = l.observations()[0].0;
+                l.set_first_kf(first);
+            }
         }
     }
-    Some(descriptors[best.1])
 }

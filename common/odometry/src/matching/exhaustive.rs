@@ -1,7 +1,8 @@
 //! Exhaustive descriptor matching with the ratio test, for when no pose prediction can
 //! narrow the search (tracking against a keyframe, relocalisation).
 
-use crate::frame::{Descriptor, hamming};
+use crate::frame::Descriptor;
+use gfs_points::best_two;
 
 /// Matches every `query` descriptor to its nearest `train` descriptor, keeping a match
 /// when its distance is at most `max_distance` and below `ratio` times the second best;
@@ -18,18 +19,11 @@ pub fn match_descriptors(
     out.resize(query.len(), None);
     let mut owner: Vec<Option<(usize, u32)>> = vec![None; train.len()];
     for (qi, q) in query.iter().enumerate() {
-        let (mut best, mut second, mut best_index) = (u32::MAX, u32::MAX, 0);
-        for (ti, t) in train.iter().enumerate() {
-            let d = hamming(q, t);
-            if d < best {
-                second = best;
-                best = d;
-                best_index = ti;
-            } else if d < second {
-                second = d;
-            }
-        }
-        if best > max_distance || (second != u32::MAX && best as f32 >= ratio * second as f32) {
+        let Some(m) = best_two(q, train.iter().enumerate()) else {
+            continue;
+        };
+        let (best, best_index) = (m.distance, m.index);
+        if best > max_distance || !m.passes_ratio(ratio) {
             continue;
         }
         match owner[best_index] {

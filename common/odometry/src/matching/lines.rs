@@ -5,16 +5,17 @@
 //! looks along the cells of the projected line's infinite extension, since a broken
 //! line keeps its slope.
 
-use crate::frame::{FrameFeatures, hamming};
+use crate::frame::FrameFeatures;
 use crate::map::Map;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::MapLineId;
 use gfs_lines::Segment;
-use gfs_lines::grid::{CellId, LineGrid};
+use gfs_lines::grid::{CellId, GridConfig, LineGrid};
+use gfs_points::best_two;
 use nalgebra::{Isometry3, Point3};
 use serde::Deserialize;
 
-/// Thresholds of grid-based line matching.
+/// `[tracking.lines]`: thresholds of grid-based line matching.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LineMatchConfig {
@@ -46,95 +47,122 @@ impl Default for LineMatchConfig {
 /// Closest a projected endpoint may be to the camera plane, metres.
 const MIN_ENDPOINT_DEPTH: f64 = 0.05;
 
-/// Matches map lines to the lines of the current frame through the grid index.
-#[derive(Debug, Default)]
+/// Which grid cells a projected map line looks in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LineWindow {
+    /// The cells the projected segment traverses, and their neighbours.
+    Segment,
+    /// Those and the cells along the projected line's infinite extension (paper Fig. 6).
+    Extension,
+}
+
+/// Matches map lines to the lines of the current frame through the frame's line grid;
+/// owns the grid and the buffers of the search.
+#[derive(Debug)]
 pub struct LineProjectionMatcher {
+    config: LineMatchConfig,
+    camera: PinholeCamera,
+    grid: LineGrid,
     cells: Vec<CellId>,
     candidates: Vec<u32>,
     best: Vec<u32>,
+    in_view: Vec<MapLineId>,
 }
 
 impl LineProjectionMatcher {
+    /// A matcher for `camera` whose frame lines are indexed on the grid `grid` (the
+    /// line front end's).
+    pub fn new(config: LineMatchConfig, camera: PinholeCamera, grid: &GridConfig) -> Self {
+        Self {
+            grid: LineGrid::new(grid),
+            cells: Vec::new(),
+            candidates: Vec::new(),
+            best: Vec::new(),
+            in_view: Vec::new(),
+            config,
+            camera,
+        }
+    }
+
+    /// Indexes the lines of the frame the next searches look in.
+    pub fn index(&mut self, frame: &FrameFeatures) {
+        self.grid.build(
+            self.camera.width,
+            self.camera.height,
+            frame.lines.iter().map(|l| &l.segment),
+        );
+    }
+
+    /// The map lines of the last search that projected into the view.
+    pub fn in_view(&self) -> &[MapLineId] {
+        &self.in_view
+    }
+
     /// Projects each map line with `camera_from_world` and links it to the best free
-    /// frame line among the grid candidates; with `extension`, the cells along the
-    /// projected line's extension are searched too. `matches[j]` is set for frame line
-    /// `j`; set entries are kept. Returns the number of new matches.
-    #[allow(clippy::too_many_arguments)]
+    /// line of the indexed frame among the grid cells of `window`. `matches[j]` is set
+    /// for frame line `j`; set entries are kept. Returns the number of new matches.
     pub fn search(
         &mut self,
-        map: &mut Map,
+        map: &Map,
         lines: &[MapLineId],
         camera_from_world: &Isometry3<f64>,
-        camera: &PinholeCamera,
         frame: &FrameFeatures,
-        grid: &LineGrid,
-        config: &LineMatchConfig,
-        extension: bool,
-        count_visible: bool,
+        window: LineWindow,
         matches: &mut [Option<MapLineId>],
     ) -> usize {
         let n = frame.lines.len().min(matches.len());
         self.best.clear();
         self.best.resize(n, u32::MAX);
-        let max_angle = config.max_angle_deg.to_radians();
+        self.in_view.clear();
+        let max_angle = self.config.max_angle_deg.to_radians();
         let mut found = 0;
         for &id in lines {
-            let Some(line) = map.line_mut(id) else {
+            let Some(line) = map.line(id) else {
                 continue;
             };
             let Some(projected) =
-                project_segment(camera, camera_from_world, &line.start, &line.end)
+                project_segment(&self.camera, camera_from_world, &line.start, &line.end)
             else {
                 continue;
             };
-            if count_visible {
-                line.visible += 1;
-            }
-            grid.candidates(
+            self.in_view.push(id);
+            self.grid.candidates(
                 &projected,
-                config.cell_radius,
-                extension,
+                self.config.cell_radius,
+                window == LineWindow::Extension,
                 &mut self.cells,
                 &mut self.candidates,
             );
-            let coefficients = projected.line_coefficients();
-            let (mut best, mut second, mut best_index) = (u32::MAX, u32::MAX, usize::MAX);
-            for &j in &self.candidates {
-                let j = j as usize;
-                if j >= n || matches[j].is_some() {
-                    continue;
-                }
-                let observed = &frame.lines[j].segment;
-                if undirected_angle(observed.angle(), projected.angle()) > max_angle {
-                    continue;
-                }
-                let [a, b, c] = coefficients;
-                let [mu, mv] = observed.midpoint();
-                if (a * mu + b * mv + c).abs() > config.max_offset_px {
-                    continue;
-                }
-                let d = hamming(&line.descriptor, &frame.line_descriptors[j]);
-                if d < best {
-                    second = best;
-                    (best, best_index) = (d, j);
-                } else if d < second {
-                    second = d;
-                }
-            }
-            if best > config.max_distance
-                || best_index == usize::MAX
-                || best >= self.best[best_index]
+            let [a, b, c] = projected.line_coefficients();
+            let max_offset = self.config.max_offset_px;
+            let free = self
+                .candidates
+                .iter()
+                .map(|&j| j as usize)
+                .filter(|&j| j < n && matches[j].is_none())
+                .filter(|&j| {
+                    let observed = &frame.lines[j].segment;
+                    let [mu, mv] = observed.midpoint();
+                    let off = undirected_angle(observed.angle(), projected.angle()) > max_angle
+                        || (a * mu + b * mv + c).abs() > max_offset;
+                    !off
+                })
+                .map(|j| (j, &frame.line_descriptors[j]));
+            let Some(best) = best_two(&line.descriptor, free) else {
+                continue;
+            };
+            let j = best.index;
+            if best.distance > self.config.max_distance
+                || best.distance >= self.best[j]
+                || !best.passes_ratio_or_ties(self.config.ratio)
             {
                 continue;
             }
-            if second != u32::MAX && best as f32 > config.ratio * second as f32 {
-                continue;
-            }
-            self.best[best_index] = best;
-            if matches[best_index].is_none() {
+            self.best[j] = best.distance;
+            if matches[j].is_none() {
                 found += 1;
             }
-            matches[best_index] = Some(id);
+            matches[j] = Some(id);
         }
         found
     }
@@ -209,6 +237,41 @@ mod tests {
                 &Point3::new(1.0, 0.0, -2.0)
             )
             .is_none()
+        );
+    }
+}
+
+#[cfg(test)]
+mod search_tests {
+    use super::*;
+    use crate::config::OdometryConfig;
+    use crate::testing::{Scene, camera, first_keyframe, pose};
+
+    #[test]
+    fn map_lines_match_their_segments_and_the_extension_reaches_shifted_ones() {
+        let scene = Scene::new(120, 12);
+        let (map, _, _) = first_keyframe(&scene, &OdometryConfig::default());
+        let mut ids: Vec<MapLineId> = map.line_ids().collect();
+        ids.sort_unstable();
+        let at = pose(0.02, 0.0);
+        let frame = scene.features(1, &at);
+        let mut matcher = LineProjectionMatcher::new(
+            LineMatchConfig::default(),
+            camera(),
+            &GridConfig::default(),
+        );
+        matcher.index(&frame);
+        let mut matches = vec![None; frame.lines.len()];
+        let found = matcher.search(&map, &ids, &at, &frame, LineWindow::Segment, &mut matches);
+        assert_eq!((found, matcher.in_view().len()), (12, 12));
+        for (j, m) in matches.iter().enumerate() {
+            let line = map.line(m.expect("every line")).expect("line");
+            assert_eq!(line.descriptor, frame.line_descriptors[j]);
+        }
+        assert_eq!(
+            matcher.search(&map, &ids, &at, &frame, LineWindow::Extension, &mut matches),
+            0,
+            "matched lines stay matched"
         );
     }
 }

@@ -7,5 +7,7 @@ mod lines;
 mod points;
 
 pub use exhaustive::match_descriptors;
-pub use lines::{LineMatchConfig, LineProjectionMatcher};
-pub use points::{PointMatchConfig, PointProjectionMatcher, ProjectionCandidate, ScalePyramid};
+pub use lines::{LineMatchConfig, LineProjectionMatcher, LineWindow};
+pub use points::{
+    PointMatchConfig, PointProjectionMatcher, PointWindow, ProjectionCandidate, ScalePyramid,
+};

@@ -2,7 +2,6 @@
 //! requests into keyframes with local mapping, and answers each with the map.
 
 use super::messages::{KeyFrameRequest, MapUpdate, MapUpdateRef};
-use super::sightings::apply_sightings;
 use crate::config::OdometryConfig;
 use crate::manhattan::WorldManhattan;
 use crate::map::Map;
@@ -30,14 +29,7 @@ impl MappingSession {
         levels: u8,
     ) -> Self {
         Self {
-            mapper: Mapper::new(
-                config.mapping.clone(),
-                config.keyframes.clone(),
-                camera,
-                ScalePyramid::new(scale_factor, levels),
-                config.tracking.close_depth_m,
-                config.tracking.use_lines,
-            ),
+            mapper: Mapper::new(config, camera, ScalePyramid::new(scale_factor, levels)),
             manhattan: WorldManhattan::new(config.tracking.use_manhattan),
             map: Map::default(),
             last_applied: 0,
@@ -61,15 +53,9 @@ impl MappingSession {
     pub fn insert(&mut self, request: KeyFrameRequest) -> MapUpdateRef<'_> {
         if request.seq > self.last_applied {
             if request.reset {
-                for kf in self.map.keyframe_ids() {
-                    self.map.remove_keyframe(kf);
-                }
+                self.map.clear_keyframes();
             }
-            apply_sightings(
-                &mut self.map,
-                &request.point_sightings,
-                &request.line_sightings,
-            );
+            request.sightings.add_to(&mut self.map);
             self.manhattan = request.manhattan;
             let kf = self
                 .mapper

@@ -4,21 +4,10 @@
 
 use crate::manhattan::WorldManhattan;
 use crate::map::Map;
+use crate::sightings::Sightings;
 use crate::tracker::TrackedFrame;
-use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
+use gfs_core::ids::{KeyFrameId, MapPointId};
 use serde::{Deserialize, Serialize};
-
-/// How often the tracker predicted and matched a landmark since the map it tracks was
-/// published: the mapper culls landmarks on these counts (`found / visible`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct SightingCount<I> {
-    /// The landmark.
-    pub id: I,
-    /// Frames in whose view it was predicted to be.
-    pub visible: u32,
-    /// Frames in which it was matched.
-    pub found: u32,
-}
 
 /// The tracker asks the mapper to make a frame a keyframe.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -32,10 +21,8 @@ pub struct KeyFrameRequest {
     pub manhattan: WorldManhattan,
     /// Drop every keyframe first: tracking was lost and a new local map starts here.
     pub reset: bool,
-    /// Point sightings since the last map the tracker received.
-    pub point_sightings: Vec<SightingCount<MapPointId>>,
-    /// Line sightings since the last map the tracker received.
-    pub line_sightings: Vec<SightingCount<MapLineId>>,
+    /// The landmark sightings since the last request (the mapper culls on them).
+    pub sightings: Sightings,
 }
 
 /// The mapper's answer to a request: the whole (bounded) map after local mapping.

@@ -6,9 +6,12 @@
 
 mod mapping;
 mod messages;
-mod sightings;
+mod state;
+#[cfg(test)]
+mod tests;
 mod tracking;
 
 pub use mapping::MappingSession;
-pub use messages::{KeyFrameRequest, MapUpdate, MapUpdateRef, SightingCount};
+pub use messages::{KeyFrameRequest, MapUpdate, MapUpdateRef};
+pub use state::{MapReceipt, RequestLedger, TrackingState};
 pub use tracking::{FramePose, TrackOutput, TrackingCheckpoint, TrackingSession};

@@ -10,7 +10,7 @@ pub const DEFAULT_INVERSE_DEPTH_SIGMA: f64 = 0.01;
 /// a pair 1 degree off costs as much as a 1-sigma pixel error.
 pub const ONE_DEGREE_INFORMATION: f64 = 3_283.139_703_653_888;
 
-/// Parameters of [`crate::LocalBundleAdjuster`] (TOML table `[local_ba]`).
+/// Parameters of [`crate::LocalBundleAdjuster`] (the odometry's TOML table `[mapping.ba]`).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct BaConfig {

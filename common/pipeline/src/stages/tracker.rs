@@ -1,6 +1,6 @@
 //! `tracker`: joins the points, lines and Manhattan axes of each frame, tracks it
 //! (the tracking half of the odometry), asks the mapper for keyframes and publishes the
-//! pose. Lockstep: a keyframe's pose is published after the mapper refined it, as the
+//! pose. Lockstep: a keyframe's pose is published after the mapper answered, as the
 //! in-process odometry does, so both give the same trajectory.
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
@@ -14,7 +14,6 @@ use gfs_ipc::{
 };
 use gfs_odometry::TrackingStatus;
 use gfs_odometry::session::{MapUpdate, TrackingCheckpoint, TrackingSession};
-use nalgebra::Isometry3;
 use std::time::Instant;
 
 /// The checkpoint: motion model, reference keyframe, counters ([`TrackingCheckpoint`]).
@@ -30,9 +29,8 @@ struct Ports<S: Service> {
     keyframes: TopicPublisher<S, u8>,
 }
 
-/// The map answering a keyframe request: the mapper's header (its stamps) and the
-/// refined keyframe pose (`camera_from_world`).
-type MapAnswer = (MsgHeader, Option<Isometry3<f64>>);
+/// The map answering a keyframe request: the mapper's header (its stamps).
+type MapAnswer = MsgHeader;
 
 /// A keyframe request sent and not answered yet.
 struct Outstanding {
@@ -124,15 +122,10 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                 });
             }
             if ctx.mode() == Mode::Lockstep || session.needs_map() {
-                let Some((mapper, refined)) =
-                    await_map(ctx, &ports, &mut session, &mut outstanding)?
-                else {
+                let Some(mapper) = await_map(ctx, &ports, &mut session, &mut outstanding)? else {
                     return Ok(());
                 };
                 header.merge_stamps(&mapper);
-                if let Some(refined) = refined {
-                    pose.world_from_camera = refined.inverse();
-                }
             }
         }
         header.mark_finished(Stage::Tracker);
@@ -163,7 +156,7 @@ fn resume(state: &StateDir, session: &mut TrackingSession) -> Result<u64, StageE
     // The map it tracked against, else the newest.
     let map = maps
         .iter()
-        .position(|m| m.seq == checkpoint.map_seq)
+        .position(|m| m.seq == checkpoint.requests.map_seq())
         .or((!maps.is_empty()).then_some(0))
         .map(|i| maps.swap_remove(i));
     let next = checkpoint.last.as_ref().map_or(0, |l| l.features.id.0 + 1);
@@ -195,8 +188,8 @@ fn receive_features<S: Service>(
     Ok(())
 }
 
-/// Applies every map received; returns the header and refined keyframe pose of the one
-/// that answered the pending request, if it came.
+/// Applies every map received; returns the header of the one that answered the pending
+/// request, if it came.
 fn take_maps<S: Service>(
     maps: &TopicSubscriber<S, u8>,
     session: &mut TrackingSession,
@@ -209,12 +202,8 @@ fn take_maps<S: Service>(
             tracing::warn!("tracker: dropping an inconsistent map: {e}");
             continue;
         }
-        let answers = session
-            .pending_request()
-            .is_some_and(|(seq, _)| seq == update.seq);
-        let refined = session.apply(update);
-        if answers {
-            answer = Some((header, refined));
+        if session.apply(update) {
+            answer = Some(header);
         }
     }
     Ok(answer)

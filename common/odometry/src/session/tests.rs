@@ -1,0 +1,194 @@
+//! The two halves' sequencing: requests, answers, resends, loss and restarts, on a
+//! scripted scene seen as exact features.
+
+use super::*;
+use crate::config::OdometryConfig;
+use crate::status::TrackingStatus;
+use crate::testing::{Scene, camera, pose};
+use gfs_lines::grid::GridConfig;
+
+fn halves() -> (TrackingSession, MappingSession) {
+    let config = OdometryConfig::default();
+    let tracking = TrackingSession::new(config.clone(), camera(), 1.2, 8, &GridConfig::default());
+    let mapping = MappingSession::new(&config, camera(), 1.2, 8);
+    (tracking, mapping)
+}
+
+/// The camera moves 1 cm right and turns 0.2 degrees per frame.
+fn truth(k: u64) -> nalgebra::Isometry3<f64> {
+    pose(0.01 * k as f64, (0.2f64 * k as f64).to_radians())
+}
+
+/// Tracks frame `k` of `scene`; a keyframe request is answered by `mapping` at once.
+fn step(
+    tracking: &mut TrackingSession,
+    mapping: &mut MappingSession,
+    scene: &Scene,
+    k: u64,
+) -> (FramePose, Option<KeyFrameRequest>) {
+    let out = tracking
+        .process(scene.features(k, &truth(k)))
+        .expect("consistent features");
+    if let Some(request) = &out.keyframe {
+        let update = mapping.insert(request.clone()).to_owned();
+        assert!(
+            tracking.apply(update),
+            "the answer to request {}",
+            request.seq
+        );
+    }
+    (out.pose, out.keyframe)
+}
+
+#[test]
+fn the_first_frame_with_depth_starts_the_map_and_its_answer_sets_the_reference() {
+    let (mut tracking, mut mapping) = halves();
+    let scene = Scene::new(200, 20);
+    let out = tracking
+        .process(scene.features(0, &truth(0)))
+        .expect("features");
+    let request = out.keyframe.expect("the first keyframe");
+    assert_eq!((request.seq, request.reset), (1, false));
+    assert_eq!(tracking.state(), TrackingState::Tracking);
+    assert_eq!(
+        tracking.pending_request(),
+        Some((1, gfs_core::ids::FrameId(0)))
+    );
+    assert!(
+        tracking.needs_map(),
+        "nothing to track against before the answer"
+    );
+    let update = mapping.insert(request).to_owned();
+    assert_eq!((update.seq, mapping.map().point_count()), (1, 200));
+    assert!(tracking.apply(update));
+    assert_eq!(tracking.pending_request(), None);
+    assert!(!tracking.needs_map());
+    assert_eq!(tracking.map().keyframe_count(), 1);
+}
+
+#[test]
+fn a_frame_with_too_little_depth_does_not_start_a_map() {
+    let (mut tracking, _) = halves();
+    let out = tracking
+        .process(Scene::new(60, 0).features(0, &truth(0)))
+        .expect("features");
+    assert!(out.keyframe.is_none());
+    assert_eq!(out.pose.status, TrackingStatus::Predicted);
+    assert_eq!(tracking.state(), TrackingState::NoMap { reset: false });
+}
+
+#[test]
+fn frames_are_tracked_and_their_sightings_travel_with_the_next_request() {
+    let (mut tracking, mut mapping) = halves();
+    let scene = Scene::new(200, 20);
+    let mut requests = Vec::new();
+    // Past max_frames (30): at least one keyframe after the first.
+    for k in 0..32 {
+        let (pose, request) = step(&mut tracking, &mut mapping, &scene, k);
+        assert!(pose.status.is_tracked(), "frame {k}: {}", pose.status);
+        let error = pose.world_from_camera * truth(k);
+        assert!(error.translation.vector.norm() < 1e-3, "frame {k}: {error}");
+        requests.extend(request);
+    }
+    assert!(requests.len() >= 2, "{} keyframes", requests.len());
+    let later = &requests[1];
+    assert!(
+        !later.sightings.is_empty(),
+        "the tracker saw the map's points"
+    );
+    assert!(mapping.map().keyframe_count() >= 2);
+}
+
+#[test]
+fn a_request_sent_again_is_applied_once() {
+    let (mut tracking, mut mapping) = halves();
+    let scene = Scene::new(200, 20);
+    let request = tracking
+        .process(scene.features(0, &truth(0)))
+        .expect("features")
+        .keyframe
+        .expect("first keyframe");
+    let first = mapping.insert(request.clone()).to_owned();
+    let again = mapping.insert(request).to_owned();
+    assert_eq!((again.seq, again.keyframe), (first.seq, first.keyframe));
+    assert_eq!(mapping.map().keyframe_count(), 1);
+    assert!(tracking.apply(first));
+    assert!(!tracking.apply(again), "the same answer twice");
+}
+
+#[test]
+fn a_long_outage_starts_a_new_map_that_resets_the_mappers() {
+    let (mut tracking, mut mapping) = halves();
+    let scene = Scene::new(200, 20);
+    step(&mut tracking, &mut mapping, &scene, 0);
+    let frames_before_new_map = OdometryConfig::default().tracking.frames_before_new_map;
+    let blind = |k: u64| crate::frame::FrameFeatures {
+        id: gfs_core::ids::FrameId(k),
+        timestamp: k as f64 / 30.0,
+        ..Default::default()
+    };
+    for k in 1..frames_before_new_map {
+        let out = tracking.process(blind(u64::from(k))).expect("features");
+        assert_eq!(out.pose.status, TrackingStatus::Predicted);
+        assert_eq!(tracking.state(), TrackingState::Lost { frames: k });
+    }
+    tracking
+        .process(blind(u64::from(frames_before_new_map)))
+        .expect("features");
+    assert_eq!(tracking.state(), TrackingState::NoMap { reset: true });
+    assert_eq!(tracking.map().keyframe_count(), 0);
+    let k = u64::from(frames_before_new_map) + 1;
+    let (pose, request) = step(&mut tracking, &mut mapping, &scene, k);
+    let request = request.expect("a new first keyframe");
+    assert!(request.reset && pose.status.is_tracked());
+    assert_eq!(
+        mapping.map().keyframe_count(),
+        1,
+        "the old keyframe was dropped"
+    );
+}
+
+#[test]
+fn a_restored_tracker_goes_on_as_the_one_it_replaces() {
+    let (mut tracking, mut mapping) = halves();
+    let scene = Scene::new(200, 20);
+    for k in 0..5 {
+        step(&mut tracking, &mut mapping, &scene, k);
+    }
+    let checkpoint = tracking.checkpoint();
+    let config = bincode::config::standard();
+    let bytes = bincode::serde::encode_to_vec(&checkpoint, config).expect("encode");
+    let (checkpoint, _): (TrackingCheckpoint, usize) =
+        bincode::serde::decode_from_slice(&bytes, config).expect("decode");
+    let (mut restored, _) = halves();
+    restored.restore(checkpoint, Some(mapping.update().to_owned()));
+    assert_eq!(restored.state(), tracking.state());
+    for k in 5..8 {
+        let a = tracking
+            .process(scene.features(k, &truth(k)))
+            .expect("features");
+        let b = restored
+            .process(scene.features(k, &truth(k)))
+            .expect("features");
+        assert_eq!(a.pose, b.pose, "frame {k}");
+        assert_eq!(a.keyframe.is_some(), b.keyframe.is_some());
+        if let (Some(ra), Some(rb)) = (a.keyframe, b.keyframe) {
+            assert_eq!(
+                (ra.seq, ra.sightings.clone()),
+                (rb.seq, rb.sightings.clone())
+            );
+            let update = mapping.insert(ra).to_owned();
+            assert!(tracking.apply(update.clone()) && restored.apply(update));
+        }
+    }
+}
+
+#[test]
+fn a_tracker_restored_without_a_map_starts_a_new_one() {
+    let (mut tracking, mut mapping) = halves();
+    let scene = Scene::new(200, 20);
+    step(&mut tracking, &mut mapping, &scene, 0);
+    let (mut restored, _) = halves();
+    restored.restore(tracking.checkpoint(), None);
+    assert_eq!(restored.state(), TrackingState::NoMap { reset: false });
+}

@@ -1,0 +1,192 @@
+//! Fixtures of the unit tests: a scene of world points and lines with distinct
+//! descriptors, seen by a camera as exact features (no detector, no noise), so that a
+//! test can script what every frame sees.
+
+use crate::config::OdometryConfig;
+use crate::frame::{Descriptor, FrameFeatures};
+use crate::manhattan::WorldManhattan;
+use crate::map::{KeyFrame, Map};
+use crate::mapper::Mapper;
+use crate::matching::ScalePyramid;
+use crate::status::TrackingStatus;
+use crate::tracker::TrackedFrame;
+use gfs_core::camera::PinholeCamera;
+use gfs_core::ids::{FrameId, KeyFrameId};
+use gfs_core::rng::SplitMix64;
+use gfs_lines::{DetectedLine, Line3, Segment};
+use gfs_points::KeyPoint;
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
+
+/// The camera of the fixtures (TUM-like, 640x480).
+pub fn camera() -> PinholeCamera {
+    PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480)
+}
+
+/// The ORB pyramid of the fixtures (8 levels, 1.2 apart).
+pub fn scale() -> ScalePyramid {
+    ScalePyramid::new(1.2, 8)
+}
+
+/// A descriptor of its own for each `(kind, index)`: two differ in about 128 bits.
+pub fn descriptor(kind: u64, index: u64) -> Descriptor {
+    let mut rng = SplitMix64::keyed(kind, &[index]);
+    [
+        rng.next_u64(),
+        rng.next_u64(),
+        rng.next_u64(),
+        rng.next_u64(),
+    ]
+}
+
+/// A camera pose `camera_from_world` after moving `x` metres right and turning `yaw`
+/// radians about the vertical.
+pub fn pose(x: f64, yaw: f64) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::new(x, 0.0, 0.0),
+        UnitQuaternion::from_euler_angles(0.0, yaw, 0.0),
+    )
+    .inverse()
+}
+
+/// World points and segments in front of the identity camera, 1.5 to 3.5 m away.
+pub struct Scene {
+    /// Map-point candidates, world.
+    pub points: Vec<Point3<f64>>,
+    /// Segments, world.
+    pub lines: Vec<[Point3<f64>; 2]>,
+}
+
+impl Scene {
+    /// `points` points on a jittered grid over the image and `lines` segments
+    /// (alternately vertical and horizontal), as the identity camera sees them.
+    pub fn new(points: usize, lines: usize) -> Self {
+        let camera = camera();
+        let mut rng = SplitMix64::new(11);
+        let cols = (points as f64).sqrt().ceil() as usize;
+        let rows = points.div_ceil(cols.max(1));
+        let points = (0..points)
+            .map(|i| {
+                let (c, r) = (i % cols, i / cols);
+                let u = 40.0 + (c as f64 + rng.range(0.2, 0.8)) * 560.0 / cols as f64;
+                let v = 40.0 + (r as f64 + rng.range(0.2, 0.8)) * 400.0 / rows.max(1) as f64;
+                camera.back_project(u, v, rng.range(1.5, 3.5))
+            })
+            .collect();
+        let lines = (0..lines)
+            .map(|j| {
+                let (u, v) = (60.0 + (j * 47 % 520) as f64, 60.0 + (j * 31 % 300) as f64);
+                let depth = 2.0 + 0.1 * (j % 5) as f64;
+                let (du, dv) = if j % 2 == 0 { (0.0, 80.0) } else { (90.0, 0.0) };
+                [
+                    camera.back_project(u, v, depth),
+                    camera.back_project(u + du, v + dv, depth),
+                ]
+            })
+            .collect();
+        Self { points, lines }
+    }
+
+    /// What a camera at `camera_from_world` sees, as frame `id` at `id / 30` s: keypoint
+    /// `i` is point `i` (depth measured), line `j` is segment `j` with its 3D line.
+    /// Features out of view are kept off-image with no depth, so that indices stay.
+    pub fn features(&self, id: u64, camera_from_world: &Isometry3<f64>) -> FrameFeatures {
+        let camera = camera();
+        let keypoints = self
+            .points
+            .iter()
+            .map(|p| {
+                let p_c = camera_from_world * p;
+                match camera
+                    .project(&p_c)
+                    .filter(|uv| camera.contains(uv.x, uv.y, 0.0))
+                {
+                    Some(uv) => keypoint(uv.x as f32, uv.y as f32, p_c.z as f32),
+                    None => keypoint(-100.0, -100.0, 0.0),
+                }
+            })
+            .collect();
+        let (mut lines, mut lines3d) = (Vec::new(), Vec::new());
+        for [a, b] in &self.lines {
+            let (a, b) = (camera_from_world * a, camera_from_world * b);
+            let (Some(pa), Some(pb)) = (camera.project(&a), camera.project(&b)) else {
+                lines.push(detected(Segment::new(-100.0, -100.0, -90.0, -100.0)));
+                lines3d.push(Line3::default());
+                continue;
+            };
+            lines.push(detected(Segment::new(
+                pa.x as f32,
+                pa.y as f32,
+                pb.x as f32,
+                pb.y as f32,
+            )));
+            lines3d.push(Line3 {
+                start: [a.x as f32, a.y as f32, a.z as f32],
+                end: [b.x as f32, b.y as f32, b.z as f32],
+                valid: 1,
+            });
+        }
+        FrameFeatures {
+            id: FrameId(id),
+            timestamp: id as f64 / 30.0,
+            point_descriptors: (0..self.points.len() as u64)
+                .map(|i| descriptor(1, i))
+                .collect(),
+            line_descriptors: (0..self.lines.len() as u64)
+                .map(|j| descriptor(2, j))
+                .collect(),
+            keypoints,
+            lines,
+            lines3d,
+            manhattan: None,
+        }
+    }
+}
+
+fn keypoint(u: f32, v: f32, depth: f32) -> KeyPoint {
+    KeyPoint {
+        u,
+        v,
+        level: 0,
+        angle: 0.0,
+        response: 1.0,
+        depth,
+    }
+}
+
+fn detected(segment: Segment) -> DetectedLine {
+    DetectedLine {
+        segment,
+        mean_gradient: 50.0,
+    }
+}
+
+/// `features` as tracked at `camera_from_world`, with no landmark links yet.
+pub fn tracked(features: FrameFeatures, camera_from_world: Isometry3<f64>) -> TrackedFrame {
+    let mut frame = TrackedFrame::untracked(features, camera_from_world);
+    frame.status = TrackingStatus::Tracked;
+    frame
+}
+
+/// A map started by the mapper from the scene seen at the identity: one keyframe whose
+/// keypoints and lines all became landmarks.
+pub fn first_keyframe(scene: &Scene, config: &OdometryConfig) -> (Map, Mapper, KeyFrameId) {
+    let mut map = Map::default();
+    let mut mapper = Mapper::new(config, camera(), scale());
+    let frame = tracked(
+        scene.features(0, &Isometry3::identity()),
+        Isometry3::identity(),
+    );
+    let kf = mapper.add_keyframe(&mut map, &frame, &mut WorldManhattan::new(false));
+    (map, mapper, kf)
+}
+
+/// The frame of `keyframe` linked to the keyframe's landmarks, as tracking it again
+/// would give.
+pub fn relinked(keyframe: &KeyFrame) -> TrackedFrame {
+    let mut frame = tracked(keyframe.features.clone(), keyframe.camera_from_world);
+    frame.point_ids = keyframe.point_ids.clone();
+    frame.line_ids = keyframe.line_ids.clone();
+    frame.inliers.points = frame.point_ids.iter().flatten().count();
+    frame.inliers.lines = frame.line_ids.iter().flatten().count();
+    frame
+}
