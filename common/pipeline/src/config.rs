@@ -65,10 +65,10 @@ pub struct PipelineConfig {
     /// both feature deadlines (a stage may wait that long for a missing input). Default
     /// 20000.
     pub hang_timeout_ms: u64,
-    /// Realtime: the longest a keyframe's local BA may run, ms; it also stops as soon as
-    /// the next keyframe request arrives, keeping its best iterate (ORB-SLAM2's abort
-    /// flag). Lockstep and inline runs ignore it, so that they stay reproducible.
-    /// Default 40 (README, "Latency").
+    /// Realtime: how long a keyframe's local mapping may take before its local BA stops
+    /// at its best iterate, ms; the BA also stops as soon as the next keyframe request
+    /// arrives (ORB-SLAM2's abort flag). Lockstep and inline runs ignore it, so that
+    /// they stay reproducible. Default 40 (README, "Latency").
     pub realtime_ba_budget_ms: u64,
     /// `[pipeline.scheduling.<stage>]`: nice level, policy and CPUs of each stage.
     pub scheduling: SchedulingConfig,

@@ -197,7 +197,11 @@ mod tests {
         join.add_points(&header(1), &[]);
         join.add_points(&header(2), &[]);
         join.next_in_order(Duration::from_secs(60)).unwrap();
-        assert_eq!(join.waiting_for(), Part::Manhattan, "frame 2 lacks its axes");
+        assert_eq!(
+            join.waiting_for(),
+            Part::Manhattan,
+            "frame 2 lacks its axes"
+        );
         join.add_manhattan(&header(3), &[]);
         join.add_points(&header(3), &[]);
         join.drop_before(3);
