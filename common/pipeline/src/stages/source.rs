@@ -48,6 +48,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         Image::<f32>::new(width, height),
     );
     let mut reader = sequence.frames_from(start, Some(total), DEFAULT_READ_AHEAD);
+    if ctx.mode() == Mode::Realtime && start == 0 {
+        await_stages(ctx, &publisher, &poses)?;
+    }
     let clock = Instant::now();
     let mut playback = Playback::default();
     for index in start..total {
@@ -118,6 +121,39 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     while !ctx.stopping() {
         publisher.update_connections()?;
         std::thread::sleep(POLL * 25);
+    }
+    Ok(())
+}
+
+/// Stages that read every frame: points, lines, planes.
+const FRAME_READERS: usize = 3;
+
+/// Realtime: waits until the stages that read frames are ready (each subscribes to the
+/// frame topic after its other ports) and the tracker is up (it opens its pose topic
+/// after its feature topics), so that the first frames are not played to stages still
+/// starting: a realtime topic keeps only the newest frame for a late subscriber. Gives
+/// up after the lockstep feature deadline, with a warning.
+fn await_stages<S: Service>(
+    ctx: &StageContext<S>,
+    frames: &TopicPublisher<S, u8>,
+    poses: &TopicSubscriber<S, WirePose>,
+) -> Result<(), StageError> {
+    let deadline =
+        Instant::now() + Duration::from_millis(ctx.config().pipeline.lockstep_feature_deadline_ms);
+    while frames.subscriber_count() < FRAME_READERS || poses.publisher_count() == 0 {
+        if ctx.stopping() {
+            return Ok(());
+        }
+        if Instant::now() >= deadline {
+            tracing::warn!(
+                readers = frames.subscriber_count(),
+                tracker = poses.publisher_count(),
+                "source: not every stage is up; playing anyway"
+            );
+            return Ok(());
+        }
+        frames.update_connections()?;
+        std::thread::sleep(POLL);
     }
     Ok(())
 }
