@@ -49,6 +49,10 @@ enum Command {
     /// Record the poses and stage profile of a pipeline whose stages run as services
     /// (systemd): trajectory.txt, status.txt, profile.json, until SIGINT / SIGTERM.
     Record(cmd::record::RecordArgs),
+    /// The pipeline on a live ROS 2 camera (realtime): subscribes to colour, depth and
+    /// camera info, publishes /odom, /tf and the status, until SIGINT / SIGTERM; then
+    /// writes trajectory.txt, status.txt and profile.json.
+    Ros2(cmd::ros2::Ros2Args),
 }
 
 fn main() -> ExitCode {
@@ -61,6 +65,7 @@ fn main() -> ExitCode {
         Command::Bench(command) => bench::run(command),
         Command::Profile(args) => cmd::profile::run(args),
         Command::Record(args) => cmd::record::run(args),
+        Command::Ros2(args) => cmd::ros2::run(args, &cli.log),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

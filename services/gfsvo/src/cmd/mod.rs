@@ -3,5 +3,7 @@
 pub mod eval;
 pub mod profile;
 pub mod record;
+pub mod ros2;
+pub mod ros2_io;
 pub mod run;
 pub mod synth;

@@ -50,6 +50,12 @@ pub struct PipelineOptions {
     pub out: PathBuf,
     /// No progress bar.
     pub quiet: bool,
+    /// The executable that plays the source role instead of `gfsvo-source` (`gfsvo ros2`
+    /// runs `gfsvo-ros2`).
+    pub source_executable: Option<String>,
+    /// Frames come until SIGINT / SIGTERM (a live camera): no last frame, no stall
+    /// limit, and the interruption is the normal end.
+    pub open_ended: bool,
 }
 
 /// What a pipeline run produced.
@@ -101,7 +107,12 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
             .parent()
             .map(Path::to_path_buf)
             .unwrap_or_default();
-        let mut pool = StageProcesses::start(&dir, stage_args(options), policy)?;
+        let mut pool = StageProcesses::start(
+            &dir,
+            stage_args(options),
+            policy,
+            options.source_executable.clone(),
+        )?;
         write_pids(&options.out, &pool.pids());
         let result = supervise(&run, recorder, options, |run| {
             let restarted = pool.restart_dead(run)?;
@@ -134,7 +145,7 @@ fn supervise<S: Service>(
     let mut progress = Instant::now();
     let bar = crate::cmd::run::progress_bar(options.total as u64, options.quiet);
     let mut interrupted = false;
-    while options.total > 0 && !recorder.has(last) {
+    while options.total > 0 && (options.open_ended || !recorder.has(last)) {
         if recorder.drain()? > 0 {
             progress = Instant::now();
             bar.set_position(recorder.len() as u64);
@@ -145,7 +156,7 @@ fn supervise<S: Service>(
             break;
         }
         restart_dead(run)?;
-        if progress.elapsed() > STALL {
+        if !options.open_ended && progress.elapsed() > STALL {
             return Err(format!(
                 "the pipeline stalled: no pose for {} s after {} frames",
                 STALL.as_secs(),

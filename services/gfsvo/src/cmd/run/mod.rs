@@ -66,6 +66,9 @@ pub struct RunArgs {
     /// Print the summary as one JSON object (ATE, frames per status, timings).
     #[arg(long)]
     pub json: bool,
+    /// Also write /odom, /tf and the status as a ROS 2 bag file (MCAP, CDR).
+    #[arg(long)]
+    pub mcap: Option<PathBuf>,
 }
 
 /// Per-stage timings of a run, as printed.
@@ -85,18 +88,21 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let mut config = Config::load(args.config.as_deref(), &dataset)?;
     config.tracking.use_lines &= !args.no_lines;
     config.tracking.use_manhattan &= !args.no_manhattan;
-    let camera = config.camera()?;
-    let sequence = Sequence::open(&dataset, &camera, &config.depth)?;
     std::fs::create_dir_all(&args.out)?;
+    let source = RunSource::open(&dataset, args, config)?;
+    let (config, sequence) = (source.config, source.sequence);
     let total = args
         .frames
-        .map_or(sequence.len(), |n| n.min(sequence.len()));
-    let timestamps = &sequence.timestamps()[..total];
+        .map_or(source.timestamps.len(), |n| n.min(source.timestamps.len()));
+    let timestamps = &source.timestamps[..total];
     let clock = std::time::Instant::now();
 
     let (poses, processed, timings, keyframes, restarts) = if args.mode == RunMode::Inline {
+        let sequence = sequence
+            .as_ref()
+            .ok_or("--mode inline plays dataset folders only")?;
         let progress = progress_bar(total as u64, args.json);
-        let outcome = inline::run(&config, config.odometry(), &sequence, total, &progress)?;
+        let outcome = inline::run(&config, config.odometry(), sequence, total, &progress)?;
         progress.finish_and_clear();
         let timings = Timings::Inline(outcome.timings);
         let processed = outcome.poses.len();
@@ -121,9 +127,9 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
                 dataset: dataset.clone(),
                 frames: args.frames,
                 max_rate: args.max_rate,
-                config,
+                config: config.clone(),
             },
-            config_path: args.config.clone(),
+            config_path: source.config_path.clone(),
             no_lines: args.no_lines,
             no_manhattan: args.no_manhattan,
             run_id,
@@ -132,6 +138,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             total,
             out: args.out.clone(),
             quiet: args.json,
+            source_executable: None,
+            open_ended: false,
         };
         let outcome = pipeline::run(&options)?;
         outcome.profile.write_json(&args.out.join("profile.json"))?;
@@ -161,7 +169,10 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
 
     let wall_s = clock.elapsed().as_secs_f64();
     let trajectory = write_outputs(&args.out, &poses)?;
-    let evaluation = match sequence.ground_truth_path() {
+    if let Some(path) = &args.mcap {
+        super::ros2_io::record_mcap(path, &config, &poses)?;
+    }
+    let evaluation = match sequence.as_ref().and_then(Sequence::ground_truth_path) {
         Some(gt) => Some(evaluate(
             &Trajectory::read_tum(&gt)?,
             &trajectory,
@@ -211,6 +222,35 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
     }
     Ok(())
+}
+
+/// What a run plays: a dataset folder or a ROS 2 bag, with the frame stamps.
+struct RunSource {
+    config: Config,
+    config_path: Option<PathBuf>,
+    timestamps: Vec<f64>,
+    sequence: Option<Sequence>,
+}
+
+impl RunSource {
+    fn open(dataset: &Path, args: &RunArgs, config: Config) -> CliResult<Self> {
+        if gfs_ros2::bag::is_bag(dataset) {
+            let bag = super::ros2_io::open_bag(dataset, args.config.as_deref(), config, &args.out)?;
+            return Ok(Self {
+                config: bag.config,
+                config_path: bag.config_path,
+                timestamps: bag.timestamps,
+                sequence: None,
+            });
+        }
+        let sequence = Sequence::open(dataset, &config.camera()?, &config.depth)?;
+        Ok(Self {
+            config,
+            config_path: args.config.clone(),
+            timestamps: sequence.timestamps().to_vec(),
+            sequence: Some(sequence),
+        })
+    }
 }
 
 /// Writes `trajectory.txt` (TUM) and `status.txt`; returns the trajectory.

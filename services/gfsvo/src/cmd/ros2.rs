@@ -1,0 +1,202 @@
+//! `gfsvo ros2`: the supervised pipeline in realtime mode fed by ROS 2 (the `gfsvo-ros2`
+//! stage in the source's place subscribes to the camera and publishes `/odom`, `/tf`
+//! and the status) until SIGINT / SIGTERM; then writes `trajectory.txt` (one pose per
+//! frame received, stamped with the colour stamp), `status.txt` and `profile.json`.
+
+use super::ros2_io::{record_mcap, write_config};
+use super::run::write_outputs;
+use crate::CliResult;
+use crate::pipeline::{self, PipelineOptions};
+use gfs_ipc::{Mode, RunId};
+use gfs_pipeline::stages::StageSettings;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `gfsvo ros2`; the topic and frame flags override the config's `[ros2]`.
+#[derive(clap::Args)]
+pub struct Ros2Args {
+    /// Config TOML with the camera (`[camera]`, `[depth]`) and optionally `[ros2]`.
+    #[arg(long)]
+    pub config: PathBuf,
+    /// Output folder for trajectory.txt, status.txt, profile.json, config.toml.
+    #[arg(long, default_value = "out/ros2")]
+    pub out: PathBuf,
+    /// Run id: the iceoryx2 prefix of the run's shared memory (default: unique).
+    #[arg(long)]
+    pub run_id: Option<String>,
+    /// Colour image topic (sensor_msgs/Image).
+    #[arg(long)]
+    pub colour_topic: Option<String>,
+    /// Depth image topic registered to colour (16UC1 mm or 32FC1 m).
+    #[arg(long)]
+    pub depth_topic: Option<String>,
+    /// CameraInfo topic of the colour camera.
+    #[arg(long)]
+    pub camera_info_topic: Option<String>,
+    /// Odometry output topic.
+    #[arg(long)]
+    pub odom_topic: Option<String>,
+    /// TF output topic.
+    #[arg(long)]
+    pub tf_topic: Option<String>,
+    /// Tracking status output topic (std_msgs/String).
+    #[arg(long)]
+    pub status_topic: Option<String>,
+    /// Odometry frame (REP 105).
+    #[arg(long)]
+    pub odom_frame: Option<String>,
+    /// Robot body frame: the odometry's child frame.
+    #[arg(long)]
+    pub base_frame: Option<String>,
+    /// Do not publish odom -> base on /tf.
+    #[arg(long)]
+    pub no_tf: bool,
+    /// Colour / depth pairing slop, seconds.
+    #[arg(long)]
+    pub slop: Option<f64>,
+    /// What a lost frame publishes: predict (inflated covariance) or nothing.
+    #[arg(long, value_parser = ["predict", "nothing"])]
+    pub when_lost: Option<String>,
+    /// Also write /odom, /tf and the status into this MCAP file at the end.
+    #[arg(long)]
+    pub mcap: Option<PathBuf>,
+}
+
+/// File in the state folder where the ROS 2 stage lists the frames it received.
+pub const FRAMES_FILE: &str = "ros2-frames.txt";
+
+/// Runs the pipeline on ROS 2 input until interrupted.
+pub fn run(args: &Ros2Args, log: &str) -> CliResult {
+    std::fs::create_dir_all(&args.out)?;
+    let state_dir = args.out.join("state");
+    if state_dir.exists() {
+        std::fs::remove_dir_all(&state_dir)?;
+    }
+    let config_path = args.out.join("config.toml");
+    let config = write_config(
+        Some(&args.config),
+        &args.out,
+        "ros2",
+        overrides(args),
+        &config_path,
+    )?;
+    let run_id = match &args.run_id {
+        Some(id) => RunId::new(id)?,
+        None => RunId::unique("ros2")?,
+    };
+    let options = PipelineOptions {
+        settings: StageSettings {
+            mode: Mode::Realtime,
+            state_dir: Some(state_dir.clone()),
+            dataset: args.out.clone(),
+            frames: None,
+            max_rate: None,
+            config: config.clone(),
+        },
+        config_path: Some(config_path),
+        no_lines: false,
+        no_manhattan: false,
+        run_id,
+        log: log.to_owned(),
+        threads: false,
+        total: usize::MAX,
+        out: args.out.clone(),
+        quiet: true,
+        source_executable: Some("gfsvo-ros2".to_owned()),
+        open_ended: true,
+    };
+    eprintln!(
+        "gfsvo ros2: waiting for {} + {} (Ctrl-C to stop)",
+        config.ros2.colour_topic, config.ros2.depth_topic
+    );
+    let outcome = pipeline::run(&options)?;
+    outcome.profile.write_json(&args.out.join("profile.json"))?;
+    let timestamps = frames_received(&state_dir.join(FRAMES_FILE))?;
+    let poses = pipeline::complete_trajectory(&outcome.received, &timestamps);
+    write_outputs(&args.out, &poses)?;
+    if let Some(path) = &args.mcap {
+        record_mcap(path, &config, &poses)?;
+    }
+    let mut counts = BTreeMap::<&str, usize>::new();
+    for pose in &poses {
+        *counts.entry(pose.status.as_str()).or_default() += 1;
+    }
+    println!(
+        "frames      {} received, {} with a pose from the tracker",
+        timestamps.len(),
+        outcome.received.len()
+    );
+    println!("status      {counts:?}");
+    println!("trajectory  {}", args.out.join("trajectory.txt").display());
+    if outcome.restarts.values().any(|n| *n > 0) {
+        println!("restarts    {:?}", outcome.restarts);
+    }
+    print!("{}", outcome.profile.summary());
+    if !outcome.leftovers.is_empty() {
+        return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
+    }
+    Ok(())
+}
+
+fn overrides(args: &Ros2Args) -> Vec<(&'static str, toml::Value)> {
+    let mut values = Vec::new();
+    let text = [
+        ("colour_topic", &args.colour_topic),
+        ("depth_topic", &args.depth_topic),
+        ("camera_info_topic", &args.camera_info_topic),
+        ("odom_topic", &args.odom_topic),
+        ("tf_topic", &args.tf_topic),
+        ("status_topic", &args.status_topic),
+        ("odom_frame", &args.odom_frame),
+        ("base_frame", &args.base_frame),
+        ("when_lost", &args.when_lost),
+    ];
+    for (key, value) in text {
+        if let Some(v) = value {
+            values.push((key, toml::Value::String(v.clone())));
+        }
+    }
+    if let Some(slop) = args.slop {
+        values.push(("slop_s", toml::Value::Float(slop)));
+    }
+    if args.no_tf {
+        values.push(("publish_tf", toml::Value::Boolean(false)));
+    }
+    values
+}
+
+/// The colour stamps of the frames the ROS 2 stage received, by frame id (lines
+/// `id stamp`, appended by the stage; a restarted stage goes on from the last id).
+fn frames_received(path: &Path) -> CliResult<Vec<f64>> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(format!("{}: {e}", path.display()).into()),
+    };
+    let mut stamps = BTreeMap::new();
+    for (n, line) in text.lines().enumerate() {
+        let mut parts = line.split_whitespace();
+        let parsed = parts
+            .next()
+            .and_then(|id| id.parse::<u64>().ok())
+            .zip(parts.next().and_then(|s| s.parse::<f64>().ok()));
+        match parsed {
+            Some((id, stamp)) => {
+                stamps.insert(id, stamp);
+            }
+            None => tracing::warn!("{}:{}: not `id stamp`; skipped", path.display(), n + 1),
+        }
+    }
+    // Ids are consecutive from 0; a gap (a line lost to a kill) keeps its neighbour's stamp.
+    let last = stamps.keys().next_back().copied().unwrap_or(0);
+    let mut out = Vec::with_capacity(stamps.len());
+    let mut previous = 0.0;
+    for id in 0..=last {
+        previous = stamps.get(&id).copied().unwrap_or(previous);
+        if stamps.is_empty() {
+            break;
+        }
+        out.push(previous);
+    }
+    Ok(out)
+}
