@@ -11,6 +11,7 @@ hand (numpy bytes after the CDR header fields), once, before publishing starts: 
 serialiser writes a uint8 sequence element by element, too slow for 30 Hz in Python."""
 import argparse
 import json
+import os
 import struct
 import threading
 import time
@@ -24,6 +25,7 @@ from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
+from cyclonedds.util import duration
 
 import tum
 
@@ -210,10 +212,10 @@ def main():
                        image_payload(dsec, dns, frame, mm, "16UC1", 2)))
     print(f"cyclone: {len(frames)} frames loaded in {time.time() - t0:.1f} s", flush=True)
 
-    dp = DomainParticipant()
+    dp = DomainParticipant(int(os.environ.get("ROS_DOMAIN_ID", "0") or 0))
     xcdr1 = Policy.DataRepresentation(use_cdrv0_representation=True)
     sensor = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(5), xcdr1)
-    reliable = Qos(Policy.Reliability.Reliable(max_blocking_time=0.1),
+    reliable = Qos(Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
                    Policy.History.KeepLast(50), xcdr1)
     colour_w = DataWriter(dp, Topic(dp, "rt/camera/color/image_raw", Image), qos=sensor)
     depth_w = DataWriter(dp, Topic(dp, "rt/camera/aligned_depth_to_color/image_raw", Image), qos=sensor)

@@ -40,12 +40,12 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
     let mut scratch = Vec::new();
     let mut next_id = state.read::<u64>(CHECKPOINT)?.unwrap_or(0);
     let mut frames_file = match &ctx.settings.state_dir {
-        Some(dir) => Some(
-            std::fs::OpenOptions::new()
-                .create(true)
-                .append(true)
-                .open(dir.join(FRAMES_FILE))?,
-        ),
+        Some(dir) => {
+            std::fs::create_dir_all(dir)?;
+            let path = dir.join(FRAMES_FILE);
+            let file = std::fs::OpenOptions::new().create(true).append(true).open(&path);
+            Some(file.map_err(|e| format!("{}: {e}", path.display()))?)
+        }
         None => None,
     };
     let dds = endpoints(ros2)?;
