@@ -13,6 +13,7 @@ import argparse
 import json
 import os
 import struct
+import subprocess
 import threading
 import time
 from dataclasses import dataclass
@@ -197,6 +198,9 @@ def main():
     ap.add_argument("--rate", type=float, default=30.0)
     ap.add_argument("--wait-match", type=float, default=60.0)
     ap.add_argument("--linger", type=float, default=5.0)
+    ap.add_argument("--on-frame", type=int, default=-1,
+                    help="run --command when this frame is published (fault test)")
+    ap.add_argument("--command", default="")
     args = ap.parse_args()
 
     frame = "camera_color_optical_frame"
@@ -264,6 +268,8 @@ def main():
         depth_w.write(Image(None, 0, 0, "", 0, 0, depth))
         if i % 30 == 0:
             info_w.write(info)
+        if i == args.on_frame and args.command:
+            subprocess.Popen(args.command, shell=True)
     print(f"cyclone: published {len(frames)} frames in {time.time() - start:.1f} s", flush=True)
     time.sleep(args.linger)
     stop.set()
@@ -275,6 +281,9 @@ def main():
             f.write(json.dumps({"stamp": sec + ns * 1e-9, "pose": pose, "frame_id": frame_id,
                                 "child_frame_id": child, "var_x": var_x}) + "\n")
     share = len(latencies) / len(frames)
+    with open(args.out + ".summary.json", "w") as f:
+        json.dump({"frames": len(frames), "received": len(latencies),
+                   "latency_ms": latencies}, f)
     p = lambda q: latencies[min(len(latencies) - 1, int(q * len(latencies)))] if latencies else float("nan")
     print(f"cyclone: /odom received for {len(latencies)} of {len(frames)} frames ({100 * share:.1f} %); "
           f"latency colour published -> /odom received p50 {p(0.5):.1f} ms, p99 {p(0.99):.1f} ms",

@@ -43,12 +43,20 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
         Some(dir) => {
             std::fs::create_dir_all(dir)?;
             let path = dir.join(FRAMES_FILE);
-            let file = std::fs::OpenOptions::new().create(true).append(true).open(&path);
+            let file = std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(&path);
             Some(file.map_err(|e| format!("{}: {e}", path.display()))?)
         }
         None => None,
     };
     let dds = endpoints(ros2)?;
+    tracing::info!(
+        "subscribed to {} and {}; next frame {next_id}",
+        ros2.colour_topic,
+        ros2.depth_topic
+    );
     let mut converter = FrameConverter::new(&camera, &config.depth);
     let mut pairer = Pairer::<Image, Image>::new(ros2.slop_s, 8);
     let mut odometry = OdometryPublisherState::new(ros2);
