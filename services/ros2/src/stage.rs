@@ -117,7 +117,10 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
         }
         while let Some(sample) = poses.receive()? {
             busy = true;
-            let Some(pose) = sample.payload().first().and_then(WirePose::pose) else {
+            let Some(wire) = sample.payload().first() else {
+                continue;
+            };
+            let Some(pose) = wire.pose() else {
                 continue;
             };
             // A restarted tracker may send a pose again: publish each frame once.
@@ -128,7 +131,7 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
             let messages = odometry.messages(&TrackedPose {
                 stamp: pose.timestamp,
                 world_from_camera: pose.world_from_camera,
-                covariance: None,
+                covariance: wire.covariance(),
                 status: pose.status.as_str(),
             });
             if let Some(odom) = messages.odometry {

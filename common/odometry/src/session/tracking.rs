@@ -44,6 +44,9 @@ pub struct TrackOutput {
     /// Send this to the mapping half, then hand its answer to
     /// [`TrackingSession::apply`].
     pub keyframe: Option<KeyFrameRequest>,
+    /// Covariance of the pose from its optimisation (`gfs_optim::PoseResult::covariance`:
+    /// camera-frame translation then rotation); `None` for a predicted pose.
+    pub covariance: Option<nalgebra::Matrix6<f64>>,
 }
 
 /// What a restarted tracker needs to go on where the old one stopped (the map comes
@@ -234,8 +237,13 @@ impl TrackingSession {
             status: frame.status,
         };
         let keyframe = wants_keyframe.then(|| self.request_keyframe(&frame));
+        let covariance = tracked.then(|| self.tracker.pose_covariance()).flatten();
         self.tracker.finish_frame(frame);
-        Ok(TrackOutput { pose, keyframe })
+        Ok(TrackOutput {
+            pose,
+            keyframe,
+            covariance,
+        })
     }
 
     /// Takes in a map from the mapping half. When it answers the pending request, the

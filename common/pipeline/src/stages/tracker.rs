@@ -88,11 +88,11 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         mark_ready(&mut header, Stage::Tracker, 0);
         header.mark_started(Stage::Tracker);
         let (id, timestamp) = (features.id, features.timestamp);
-        let (mut pose, request) = match session.process(features) {
-            Ok(out) => (out.pose, out.keyframe),
+        let (mut pose, request, covariance) = match session.process(features) {
+            Ok(out) => (out.pose, out.keyframe, out.covariance),
             Err(e) => {
                 tracing::warn!("tracker: {e}; the pose is predicted");
-                (session.skip(id, timestamp), None)
+                (session.skip(id, timestamp), None, None)
             }
         };
         if incomplete && pose.status == TrackingStatus::Tracked {
@@ -125,7 +125,8 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         header.mark_finished(Stage::Tracker);
         let predicted = session.predicted_quaternion();
-        let wire = WirePose::new(&pose, predicted.as_ref(), keyframe);
+        let wire =
+            WirePose::new(&pose, predicted.as_ref(), keyframe).with_covariance(covariance.as_ref());
         ports.poses.publish_slice(&header, &[wire])?;
         state.write(CHECKPOINT, &session.checkpoint(), &mut scratch)?;
         next_frame = id.0 + 1;

@@ -115,7 +115,7 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
     let poses = pipeline::complete_trajectory(&outcome.received, &timestamps);
     write_outputs(&args.out, &poses)?;
     if let Some(path) = &args.mcap {
-        record_mcap(path, &config, &poses)?;
+        record_mcap(path, &config, &poses, &outcome.covariances)?;
     }
     let mut counts = BTreeMap::<&str, usize>::new();
     for pose in &poses {

@@ -5,6 +5,7 @@
 
 use crate::CliResult;
 use crate::config::Config;
+use crate::pipeline::Covariances;
 use gfs_core::camera::Camera;
 use gfs_odometry::FramePose;
 use gfs_ros2::bag::{BagTopics, BagWriter, scan};
@@ -137,11 +138,17 @@ pub fn write_config(
 }
 
 /// Writes `/odom`, `/tf` and the status of every pose into an MCAP file (ROS 2 profile),
-/// stamped with the colour stamps.
+/// stamped with the colour stamps, with the covariance of each tracked pose (a pose
+/// without one, predicted, gets the inflated "unknown" covariance).
 ///
 /// # Errors
 /// The file cannot be written.
-pub fn record_mcap(path: &Path, config: &Config, poses: &[FramePose]) -> CliResult {
+pub fn record_mcap(
+    path: &Path,
+    config: &Config,
+    poses: &[FramePose],
+    covariances: &Covariances,
+) -> CliResult {
     let ros2 = &config.ros2;
     let mut state = OdometryPublisherState::new(ros2);
     let mut writer = BagWriter::create(path)?;
@@ -149,7 +156,7 @@ pub fn record_mcap(path: &Path, config: &Config, poses: &[FramePose]) -> CliResu
         let messages = state.messages(&TrackedPose {
             stamp: pose.timestamp,
             world_from_camera: pose.world_from_camera,
-            covariance: None,
+            covariance: covariances.get(&pose.id.0).copied(),
             status: pose.status.as_str(),
         });
         let time = (pose.timestamp.max(0.0) * 1e9).round() as u64;

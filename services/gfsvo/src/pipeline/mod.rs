@@ -8,7 +8,7 @@ mod restarts;
 pub mod signals;
 mod threads;
 
-pub use recorder::{Recorder, complete_trajectory};
+pub use recorder::{Covariances, Recorder, complete_trajectory};
 
 use crate::CliResult;
 use children::StageProcesses;
@@ -62,6 +62,8 @@ pub struct PipelineOptions {
 pub struct PipelineOutcome {
     /// The poses received, by frame id.
     pub received: BTreeMap<u64, FramePose>,
+    /// Their covariances (tracked frames), by frame id.
+    pub covariances: Covariances,
     /// Stage stamps of every frame.
     pub profile: Profile,
     /// Keyframes made.
@@ -131,7 +133,7 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
     }
 }
 
-type Supervised = CliResult<(Profile, BTreeMap<u64, FramePose>, usize, bool)>;
+type Supervised = CliResult<(Profile, BTreeMap<u64, FramePose>, Covariances, usize, bool)>;
 
 /// Records poses until the last frame has one (or a signal came), restarting dead
 /// stages on the way.
@@ -169,8 +171,8 @@ fn supervise<S: Service>(
     recorder.drain()?;
     bar.finish_and_clear();
     let keyframes = recorder.keyframes();
-    let (profile, received) = recorder.into_profile();
-    Ok((profile, received, keyframes, interrupted))
+    let (profile, received, covariances) = recorder.into_profile();
+    Ok((profile, received, covariances, keyframes, interrupted))
 }
 
 fn finish(
@@ -182,9 +184,10 @@ fn finish(
     if !leftovers.is_empty() {
         tracing::warn!("files of the run left behind: {leftovers:?}");
     }
-    let (profile, received, keyframes, interrupted) = result?;
+    let (profile, received, covariances, keyframes, interrupted) = result?;
     Ok(PipelineOutcome {
         received,
+        covariances,
         profile,
         keyframes,
         restarts: totals.into_iter().collect(),

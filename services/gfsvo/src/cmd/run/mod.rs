@@ -88,6 +88,11 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let mut config = Config::load(args.config.as_deref(), &dataset)?;
     config.tracking.use_lines &= !args.no_lines;
     config.tracking.use_manhattan &= !args.no_manhattan;
+    if args.mcap.is_some() && args.mode == RunMode::Inline {
+        return Err(
+            "--mcap records the pose covariances of the pipeline modes, not of inline".into(),
+        );
+    }
     std::fs::create_dir_all(&args.out)?;
     let source = RunSource::open(&dataset, args, config)?;
     let (config, sequence) = (source.config, source.sequence);
@@ -97,7 +102,9 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let timestamps = &source.timestamps[..total];
     let clock = std::time::Instant::now();
 
-    let (poses, processed, timings, keyframes, restarts) = if args.mode == RunMode::Inline {
+    let (poses, processed, timings, keyframes, restarts, covariances) = if args.mode
+        == RunMode::Inline
+    {
         let sequence = sequence
             .as_ref()
             .ok_or("--mode inline plays dataset folders only")?;
@@ -106,7 +113,15 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         progress.finish_and_clear();
         let timings = Timings::Inline(outcome.timings);
         let processed = outcome.poses.len();
-        (outcome.poses, processed, timings, outcome.keyframes, None)
+        let covariances = crate::pipeline::Covariances::new();
+        (
+            outcome.poses,
+            processed,
+            timings,
+            outcome.keyframes,
+            None,
+            covariances,
+        )
     } else {
         let state_dir = args.out.join("state");
         if state_dir.exists() {
@@ -164,13 +179,14 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             timings,
             outcome.keyframes,
             Some(outcome.restarts),
+            outcome.covariances,
         )
     };
 
     let wall_s = clock.elapsed().as_secs_f64();
     let trajectory = write_outputs(&args.out, &poses)?;
     if let Some(path) = &args.mcap {
-        super::ros2_io::record_mcap(path, &config, &poses)?;
+        super::ros2_io::record_mcap(path, &config, &poses, &covariances)?;
     }
     let evaluation = match sequence.as_ref().and_then(Sequence::ground_truth_path) {
         Some(gt) => Some(evaluate(
