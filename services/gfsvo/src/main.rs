@@ -36,6 +36,8 @@ enum Command {
     /// Run the odometry on a dataset folder (default: the built-in synthetic sequence):
     /// writes trajectory.txt and status.txt, prints the ATE and the time per stage.
     Run(cmd::run::RunArgs),
+    /// Write a dataset folder as a ROS 2 bag (MCAP, CDR) on an RGB-D driver's topics.
+    Convert(cmd::convert::ConvertArgs),
     /// Compare an estimated trajectory with ground truth: ATE and RPE, as evo computes them.
     Eval(cmd::eval::EvalArgs),
     /// Render a synthetic RGB-D sequence with ground truth in TUM layout.
@@ -60,6 +62,7 @@ fn main() -> ExitCode {
     init_logging(&cli.log);
     let result = match &cli.command {
         Command::Run(args) => cmd::run::run(args, &cli.log),
+        Command::Convert(args) => cmd::convert::run(args),
         Command::Eval(args) => cmd::eval::run(args),
         Command::Synth(args) => cmd::synth::run(args),
         Command::Bench(command) => bench::run(command),

@@ -1,5 +1,6 @@
 //! Subcommands other than the benchmarks.
 
+pub mod convert;
 pub mod eval;
 pub mod profile;
 pub mod record;
