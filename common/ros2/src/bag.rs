@@ -164,7 +164,7 @@ impl BagReader {
             let decided = if self.ended {
                 self.pairer.flush()
             } else {
-                self.pairer.next()
+                self.pairer.decide_next()
             };
             match decided {
                 Some(Paired::Pair(colour, depth)) => return Ok(Some(BagFrame { colour, depth })),

@@ -102,3 +102,77 @@ pub fn info_from_camera(camera: &Camera, header: crate::msg::Header) -> CameraIn
         roi: Default::default(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::msg::{Header, Time};
+    use gfs_core::camera::{Distortion, PinholeCamera};
+
+    fn fr1() -> Camera {
+        Camera {
+            pinhole: PinholeCamera::new(517.3, 516.5, 318.6, 255.3, 640, 480),
+            distortion: Distortion {
+                k1: 0.26,
+                k2: -0.95,
+                p1: -0.005,
+                p2: 0.003,
+                k3: 1.16,
+            },
+        }
+    }
+
+    fn header() -> Header {
+        Header {
+            stamp: Time { sec: 3, nanosec: 0 },
+            frame_id: "cam".to_owned(),
+        }
+    }
+
+    #[test]
+    fn camera_info_round_trips_the_camera() {
+        let info = info_from_camera(&fr1(), header());
+        let camera = camera_from_info(&info, "/info", 0.02).unwrap();
+        assert!(!cameras_differ(&camera, &fr1()));
+        let mut other = fr1();
+        other.pinhole.fx += 1.0;
+        assert!(cameras_differ(&camera, &other));
+    }
+
+    #[test]
+    fn zeros_and_unknown_models_are_refused_naming_topic_and_stamp() {
+        let mut info = info_from_camera(&fr1(), header());
+        info.k = [0.0; 9];
+        let e = camera_from_info(&info, "/info", 0.0).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "/info at 3.000000 s: K is all zeros (uncalibrated camera)"
+        );
+        let mut info = info_from_camera(&fr1(), header());
+        info.width = 0;
+        assert!(
+            camera_from_info(&info, "/info", 0.0)
+                .unwrap_err()
+                .reason
+                .contains("width")
+        );
+        let mut info = info_from_camera(&fr1(), header());
+        info.distortion_model = "equidistant".to_owned();
+        info.d.truncate(4);
+        assert!(
+            camera_from_info(&info, "/info", 0.0)
+                .unwrap_err()
+                .reason
+                .contains("equidistant")
+        );
+        let mut info = info_from_camera(&fr1(), header());
+        info.d = vec![0.0; 5];
+        info.distortion_model = String::new();
+        assert!(
+            camera_from_info(&info, "/info", 0.0)
+                .unwrap()
+                .distortion
+                .is_zero()
+        );
+    }
+}

@@ -47,7 +47,7 @@ impl<C, D> Pairer<C, D> {
     }
 
     /// The next decision, if one can be made now.
-    pub fn next(&mut self) -> Option<Paired<C, D>> {
+    pub fn decide_next(&mut self) -> Option<Paired<C, D>> {
         self.decide(false)
     }
 
@@ -95,13 +95,13 @@ mod tests {
         let mut p = Pairer::new(0.02, 8);
         p.push_colour(100 * MS, "c100");
         p.push_depth(90 * MS, "d90");
-        assert_eq!(p.next(), None, "a later depth could be nearer");
+        assert_eq!(p.decide_next(), None, "a later depth could be nearer");
         p.push_depth(103 * MS, "d103");
-        assert_eq!(p.next(), Some(Paired::Pair("c100", "d103")));
+        assert_eq!(p.decide_next(), Some(Paired::Pair("c100", "d103")));
         p.push_colour(133 * MS, "c133");
         p.push_depth(137 * MS, "d137");
-        assert_eq!(p.next(), Some(Paired::Pair("c133", "d137")));
-        assert_eq!(p.next(), None);
+        assert_eq!(p.decide_next(), Some(Paired::Pair("c133", "d137")));
+        assert_eq!(p.decide_next(), None);
     }
 
     #[test]
@@ -109,11 +109,11 @@ mod tests {
         let mut p = Pairer::new(0.01, 8);
         p.push_colour(100 * MS, 1);
         p.push_depth(150 * MS, 2);
-        assert_eq!(p.next(), Some(Paired::ColourWithoutDepth(100 * MS)));
+        assert_eq!(p.decide_next(), Some(Paired::ColourWithoutDepth(100 * MS)));
         p.push_colour(152 * MS, 3);
-        assert_eq!(p.next(), None);
+        assert_eq!(p.decide_next(), None);
         p.push_depth(160 * MS, 4);
-        assert_eq!(p.next(), Some(Paired::Pair(3, 2)));
+        assert_eq!(p.decide_next(), Some(Paired::Pair(3, 2)));
     }
 
     #[test]
@@ -122,7 +122,7 @@ mod tests {
         for k in 0..3 {
             p.push_colour(k * 33 * MS, k as i32);
         }
-        assert_eq!(p.next(), Some(Paired::ColourWithoutDepth(0)));
-        assert_eq!(p.next(), None);
+        assert_eq!(p.decide_next(), Some(Paired::ColourWithoutDepth(0)));
+        assert_eq!(p.decide_next(), None);
     }
 }

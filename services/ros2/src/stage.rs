@@ -78,7 +78,7 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
                 Err(e) => tracing::warn!("{e}; tracking with the config's camera"),
             }
         }
-        while let Some(decision) = pairer.next() {
+        while let Some(decision) = pairer.decide_next() {
             busy = true;
             match decision {
                 Paired::Pair(colour, depth) => {
