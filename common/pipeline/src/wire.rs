@@ -327,6 +327,8 @@ mod tests {
         assert_eq!(w.predicted_rotation(), Some(r.to_rotation_matrix()));
         assert_eq!(WirePose::new(&pose, None, false).predicted_rotation(), None);
         assert_eq!(w.covariance(), None);
+        // deploy/iceoryx2.toml documents the layout for other languages.
+        assert_eq!(std::mem::size_of::<WirePose>(), 280);
         let c = Matrix6::from_fn(|r, k| 1.0 / (1.0 + r as f64 + k as f64));
         assert_eq!(w.with_covariance(Some(&c)).covariance(), Some(c));
         let mut bad = w.with_covariance(Some(&c));
