@@ -226,10 +226,22 @@ def main():
     info_w = DataWriter(dp, Topic(dp, "rt/camera/color/camera_info", CameraInfo), qos=sensor)
     odom_r = DataReader(dp, Topic(dp, "rt/odom", Odometry), qos=reliable)
 
+    c = tum.FR1
+
+    def camera_info(sec, ns):
+        return CameraInfo(Header(Time(sec, ns), frame), 480, 640, "plumb_bob", c["d"],
+                          [c["fx"], 0, c["cx"], 0, c["fy"], c["cy"], 0, 0, 1],
+                          [1, 0, 0, 0, 1, 0, 0, 0, 1],
+                          [c["fx"], 0, c["cx"], 0, 0, c["fy"], c["cy"], 0, 0, 0, 1, 0],
+                          0, 0, RegionOfInterest(0, 0, 0, 0, False))
+
+    # A driver publishes its CameraInfo from the start (gfsvo ros2 reads the camera
+    # from it before it starts the pipeline).
     deadline = time.time() + args.wait_match
     while time.time() < deadline:
         if colour_w.get_matched_subscriptions() and depth_w.get_matched_subscriptions():
             break
+        info_w.write(camera_info(*tum.stamp(frames[0][0])))
         time.sleep(0.1)
     else:
         raise SystemExit("cyclone: gfsvo-ros2 did not subscribe within the wait")
@@ -252,17 +264,12 @@ def main():
 
     reader = threading.Thread(target=read_odom)
     reader.start()
-    c = tum.FR1
     start = time.time()
     for i, (t_rgb, sec, ns, colour, depth) in enumerate(frames):
         due = start + i / args.rate
         while (now := time.time()) < due:
             time.sleep(min(0.002, due - now))
-        info = CameraInfo(Header(Time(sec, ns), frame), 480, 640, "plumb_bob", c["d"],
-                          [c["fx"], 0, c["cx"], 0, c["fy"], c["cy"], 0, 0, 1],
-                          [1, 0, 0, 0, 1, 0, 0, 0, 1],
-                          [c["fx"], 0, c["cx"], 0, 0, c["fy"], c["cy"], 0, 0, 0, 1, 0],
-                          0, 0, RegionOfInterest(0, 0, 0, 0, False))
+        info = camera_info(sec, ns)
         published[(sec, ns)] = time.time()
         colour_w.write(Image(None, 0, 0, "", 0, 0, colour))
         depth_w.write(Image(None, 0, 0, "", 0, 0, depth))

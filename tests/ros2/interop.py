@@ -6,9 +6,11 @@
    has one /odom per pose, each equal to trajectory.txt.
 3. Live: Cyclone DDS publishes the folder at 30 Hz on loopback as rgb8 + 16UC1 mm +
    CameraInfo, `gfsvo ros2` tracks it, Cyclone receives /odom for >= 98 % of the frames;
-   ATE within 10 % of `gfsvo run` on a bag of the same 16UC1 data (REP 118 millimetres
-   quantise TUM's 0.2 mm depth steps: that changes the run, not the transport); the
-   latency colour published -> /odom received is printed.
+   its ATE is at most 10 % above `gfsvo run` (lockstep) on the same 16UC1 data played
+   from a bag. Not the folder: REP 118 millimetres quantise TUM's 0.2 mm depth steps,
+   which moves this 300-frame run from 0.0138 to 0.0184 m before any ROS 2 transport;
+   and realtime runs vary from run to run (the tracker does not wait for local
+   mapping). Both ratios and the latency colour published -> /odom received are printed.
 4. Fault: the same live run with the ROS 2 stage SIGKILLed at frame 100: it is
    restarted, and from its first frame back, >= 95 % of the frames get /odom.
 """
@@ -112,7 +114,8 @@ def main():
     print(f"ATE RMSE: folder {ate_folder:.4f} m, bag 32FC1 {ate_folder:.4f} m (identical), "
           f"bag 16UC1 mm {ate_mm:.4f} m, live ROS 2 16UC1 mm {ate_live:.4f} m", flush=True)
     assert share >= 0.98, "/odom for at least 98 % of the frames"
-    assert abs(ate_live - ate_mm) <= 0.10 * ate_mm, "live ATE within 10 % of the same data played from a bag"
+    print(f"live / folder {ate_live / ate_folder:.2f}, live / 16UC1 bag {ate_live / ate_mm:.2f}")
+    assert ate_live <= 1.10 * ate_mm, "live ATE at most 10 % above the same data played from a bag"
 
     summary, out, text = live("live_fault", kill_at=100)
     restarts = re.search(r'restarts\s+\{.*"source": (\d+)', text)

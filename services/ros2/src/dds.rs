@@ -62,11 +62,13 @@ pub fn localhost_only() -> bool {
             .eq_ignore_ascii_case("LOCALHOST")
 }
 
-/// Creates the participant, the node `gfsvo` and its endpoints.
-///
-/// # Errors
-/// [`DdsError`] when the participant, a topic name or an endpoint cannot be created.
-pub fn endpoints(config: &Ros2Config) -> Result<Endpoints, DdsError> {
+/// Sensor-data QoS of the camera subscriptions: best effort, the last few messages.
+fn sensor_qos() -> QosProfile {
+    QosProfile::subscription_default().history(History::KeepLast { depth: 5 })
+}
+
+/// The participant on the ROS domain and the node `name` on it.
+fn node(name: &str) -> Result<Node, DdsError> {
     let mut builder = DomainParticipantBuilder::new(domain_id()?);
     if localhost_only() {
         builder = builder
@@ -74,16 +76,49 @@ pub fn endpoints(config: &Ros2Config) -> Result<Endpoints, DdsError> {
             .same_host_loopback(true);
     }
     let context = Context::from_domain_participant(builder.build()?)?;
-    let mut node = context.new_node(
-        NodeName::new("/", "gfsvo")?,
+    Ok(context.new_node(
+        NodeName::new("/", name)?,
         NodeOptions::new().enable_rosout(false),
+    )?)
+}
+
+fn topic(
+    node: &mut Node,
+    name: &str,
+    pkg: &str,
+    ty: &str,
+    qos: &QosProfile,
+) -> Result<ros2_client::dds::rustdds::Topic, DdsError> {
+    Ok(node.create_topic(&Name::parse(name)?, MessageTypeName::new(pkg, ty), qos)?)
+}
+
+/// A node subscribed to the camera info alone (the camera probe: subscribing to the
+/// images too would tell a driver waiting for subscribers to start too early).
+///
+/// # Errors
+/// [`DdsError`] when the participant or the subscription cannot be created.
+pub fn camera_info_only(config: &Ros2Config) -> Result<(Node, Subscription<CameraInfo>), DdsError> {
+    let mut node = node("gfsvo_camera_probe")?;
+    let sensor = sensor_qos();
+    let info = topic(
+        &mut node,
+        &config.camera_info_topic,
+        "sensor_msgs",
+        "CameraInfo",
+        &sensor,
     )?;
-    let sensor = QosProfile::subscription_default().history(History::KeepLast { depth: 5 });
+    let subscription = node.create_subscription(&info, Some(sensor))?;
+    Ok((node, subscription))
+}
+
+/// Creates the participant, the node `gfsvo` and its endpoints.
+///
+/// # Errors
+/// [`DdsError`] when the participant, a topic name or an endpoint cannot be created.
+pub fn endpoints(config: &Ros2Config) -> Result<Endpoints, DdsError> {
+    let mut node = node("gfsvo")?;
+    let sensor = sensor_qos();
     let output = QosProfile::publisher_default().history(History::KeepLast { depth: 50 });
-    let topic = |node: &mut Node, name: &str, pkg: &str, ty: &str, qos: &QosProfile| {
-        node.create_topic(&Name::parse(name)?, MessageTypeName::new(pkg, ty), qos)
-            .map_err(DdsError::from)
-    };
     let colour_topic = topic(
         &mut node,
         &config.colour_topic,

@@ -8,10 +8,31 @@ mod dds;
 mod stage;
 
 use gfs_pipeline::service::StageArgs;
+use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// The stage's command line: every stage's, and the camera probe `gfsvo ros2` runs
+/// before it starts the stages.
+#[derive(clap::Parser, Debug)]
+#[command(version)]
+struct Args {
+    #[command(flatten)]
+    stage: StageArgs,
+    /// Instead of running the stage: wait for one CameraInfo, write its camera as the
+    /// `[camera]` TOML table into this file, and exit.
+    #[arg(long)]
+    probe_camera: Option<PathBuf>,
+    /// How long the probe waits for a CameraInfo, seconds.
+    #[arg(long, default_value_t = 10.0)]
+    probe_timeout_s: f64,
+}
+
 fn main() -> ExitCode {
-    let args = <StageArgs as clap::Parser>::parse();
+    let Args {
+        stage: args,
+        probe_camera,
+        probe_timeout_s,
+    } = <Args as clap::Parser>::parse();
     // RustDDS is noisy below error (harmless loopback and fragment messages).
     let filter = format!("{},rustdds=error,ros2_client=error", args.log);
     let filter = tracing_subscriber::EnvFilter::try_new(filter)
@@ -20,7 +41,11 @@ fn main() -> ExitCode {
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
         .init();
-    match stage::run(&args) {
+    let result = match &probe_camera {
+        Some(path) => stage::probe_camera(&args, path, probe_timeout_s),
+        None => stage::run(&args),
+    };
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("gfsvo-ros2: error: {e}");

@@ -1,7 +1,7 @@
 //! The stage loop: DDS messages in, frames out; poses in, ROS 2 messages out. It plays
 //! the source's role in the run (its stamps are the source's in `profile.json`).
 
-use crate::dds::{DdsError, Endpoints, endpoints};
+use crate::dds::{DdsError, Endpoints, camera_info_only, endpoints};
 use gfs_ipc::{FrameLayout, IpcRun, RunId, Stage, ipc, topics};
 use gfs_pipeline::service::StageArgs;
 use gfs_pipeline::stages::StageContext;
@@ -148,6 +148,54 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
         }
     }
     Ok(())
+}
+
+/// Waits up to `timeout_s` for a valid CameraInfo and writes its camera (with the
+/// config's `readout_s`) as a `[camera]` table into `path`.
+///
+/// # Errors
+/// No valid CameraInfo in time (the last problem is named), DDS or the file.
+pub fn probe_camera(
+    args: &StageArgs,
+    path: &std::path::Path,
+    timeout_s: f64,
+) -> Result<(), DdsError> {
+    let config = args.settings()?.config;
+    let ros2 = &config.ros2;
+    let (_node, camera_info) = camera_info_only(ros2)?;
+    let deadline = std::time::Instant::now() + Duration::from_secs_f64(timeout_s.max(0.0));
+    let mut problem = format!("no message on {}", ros2.camera_info_topic);
+    while std::time::Instant::now() < deadline {
+        match camera_info.take() {
+            Ok(Some((info, _))) => {
+                match camera_from_info(&info, &ros2.camera_info_topic, config.camera.readout_s) {
+                    Ok(camera) => {
+                        let (p, d) = (&camera.pinhole, &camera.distortion);
+                        let table = gfs_core::camera::CameraConfig {
+                            fx: p.fx,
+                            fy: p.fy,
+                            cx: p.cx,
+                            cy: p.cy,
+                            width: p.width,
+                            height: p.height,
+                            k1: d.k1,
+                            k2: d.k2,
+                            p1: d.p1,
+                            p2: d.p2,
+                            k3: d.k3,
+                            readout_s: config.camera.readout_s,
+                        };
+                        std::fs::write(path, toml::to_string(&table)?)?;
+                        return Ok(());
+                    }
+                    Err(e) => problem = e.to_string(),
+                }
+            }
+            Ok(None) => std::thread::sleep(Duration::from_millis(20)),
+            Err(e) => problem = format!("{}: {e:?}", ros2.camera_info_topic),
+        }
+    }
+    Err(format!("no valid CameraInfo within {timeout_s} s: {problem}").into())
 }
 
 /// Moves the images that arrived into the pairer; true when any did.

@@ -3,12 +3,14 @@
 //! and the status) until SIGINT / SIGTERM; then writes `trajectory.txt` (one pose per
 //! frame received, stamped with the colour stamp), `status.txt` and `profile.json`.
 
-use super::ros2_io::{record_mcap, write_config};
+use super::ros2_io::{camera_values, record_mcap, write_config};
 use super::run::write_outputs;
 use crate::CliResult;
 use crate::pipeline::{self, PipelineOptions};
+use gfs_core::camera::{Camera, CameraConfig};
 use gfs_ipc::{Mode, RunId};
 use gfs_pipeline::stages::StageSettings;
+use gfs_ros2::camera_info::cameras_differ;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -60,6 +62,10 @@ pub struct Ros2Args {
     /// Also write /odom, /tf and the status into this MCAP file at the end.
     #[arg(long)]
     pub mcap: Option<PathBuf>,
+    /// How long to wait for the driver's CameraInfo before starting (its camera wins
+    /// over the config's, with a warning); 0: track with the config's camera.
+    #[arg(long, default_value_t = 10.0)]
+    pub camera_info_timeout: f64,
 }
 
 /// File in the state folder where the ROS 2 stage lists the frames it received.
@@ -73,7 +79,7 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
         std::fs::remove_dir_all(&state_dir)?;
     }
     let config_path = args.out.join("config.toml");
-    let config = write_config(
+    let mut config = write_config(
         Some(&args.config),
         &args.out,
         "ros2",
@@ -84,6 +90,24 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
         Some(id) => RunId::new(id)?,
         None => RunId::unique("ros2")?,
     };
+    if args.camera_info_timeout > 0.0
+        && let Some(camera) = probe_camera(args, &config_path, &run_id)?
+        && cameras_differ(&camera, &config.camera()?)
+    {
+        tracing::warn!(
+            "the camera of {} differs from {}'s; tracking with the driver's: {:?}",
+            config.ros2.camera_info_topic,
+            args.config.display(),
+            camera
+        );
+        config = write_config(
+            Some(&config_path),
+            &args.out,
+            "camera",
+            camera_values(&camera),
+            &config_path,
+        )?;
+    }
     let options = PipelineOptions {
         settings: StageSettings {
             mode: Mode::Realtime,
@@ -136,6 +160,43 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
         return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
     }
     Ok(())
+}
+
+/// The driver's camera, from one CameraInfo read by `gfsvo-ros2 --probe-camera` (the
+/// DDS side lives in that executable); `None`, with a warning, when none came in time.
+fn probe_camera(args: &Ros2Args, config: &Path, run_id: &RunId) -> CliResult<Option<Camera>> {
+    let file = args.out.join("camera-info.toml");
+    let _ = std::fs::remove_file(&file);
+    let exe = std::env::current_exe()?
+        .parent()
+        .map(|d| d.join("gfsvo-ros2"))
+        .unwrap_or_default();
+    eprintln!(
+        "gfsvo ros2: reading the camera from its CameraInfo (up to {} s)",
+        args.camera_info_timeout
+    );
+    let status = std::process::Command::new(&exe)
+        .arg("--dataset")
+        .arg(&args.out)
+        .arg("--config")
+        .arg(config)
+        .args(["--run-id", run_id.as_str(), "--probe-camera"])
+        .arg(&file)
+        .arg("--probe-timeout-s")
+        .arg(args.camera_info_timeout.to_string())
+        .status()
+        .map_err(|e| format!("cannot start {}: {e}", exe.display()))?;
+    if !status.success() {
+        tracing::warn!(
+            "no CameraInfo: tracking with the camera of {}",
+            args.config.display()
+        );
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&file)?;
+    let table: CameraConfig =
+        toml::from_str(&text).map_err(|e| format!("{}: {e}", file.display()))?;
+    Ok(Some(Camera::from_config(&table)?))
 }
 
 fn overrides(args: &Ros2Args) -> Vec<(&'static str, toml::Value)> {

@@ -86,6 +86,12 @@ fn derived_config(
     camera: &Camera,
     path: &Path,
 ) -> CliResult<Config> {
+    write_config(config_path, dataset, "camera", camera_values(camera), path)
+}
+
+/// The `[camera]` values of `camera` (its `readout_s` is not among them: the config's
+/// stays).
+pub fn camera_values(camera: &Camera) -> Vec<(&'static str, toml::Value)> {
     let (p, d) = (&camera.pinhole, &camera.distortion);
     let mut values: Vec<(&str, toml::Value)> = [
         ("fx", p.fx),
@@ -103,7 +109,7 @@ fn derived_config(
     .collect();
     values.push(("width", toml::Value::Integer(p.width as i64)));
     values.push(("height", toml::Value::Integer(p.height as i64)));
-    write_config(config_path, dataset, "camera", values, path)
+    values
 }
 
 /// Writes the config of `config_path` (or the dataset's built-in one) with `values` set
@@ -116,7 +122,7 @@ pub fn write_config(
     config_path: Option<&Path>,
     dataset: &Path,
     section: &str,
-    values: Vec<(&str, toml::Value)>,
+    values: Vec<(&'static str, toml::Value)>,
     path: &Path,
 ) -> CliResult<Config> {
     let (origin, text) = Config::source_text(config_path, dataset)?;
