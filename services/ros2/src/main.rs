@@ -33,8 +33,18 @@ fn main() -> ExitCode {
         probe_camera,
         probe_timeout_s,
     } = <Args as clap::Parser>::parse();
-    // RustDDS is noisy below error (harmless loopback and fragment messages).
-    let filter = format!("{},rustdds=error,ros2_client=error", args.log);
+    // RustDDS is noisy below error (harmless loopback and fragment messages): its `log`
+    // records reach `tracing` from error up, unless the filter names it.
+    let dds_named = args.log.contains("rustdds") || args.log.contains("ros2_client");
+    let level = if dds_named {
+        tracing_log::log::LevelFilter::Trace
+    } else {
+        tracing_log::log::LevelFilter::Error
+    };
+    if let Err(e) = tracing_log::LogTracer::init_with_filter(level) {
+        eprintln!("gfsvo-ros2: DDS logs are not shown: {e}");
+    }
+    let filter = format!("rustdds=error,ros2_client=error,{}", args.log);
     let filter = tracing_subscriber::EnvFilter::try_new(filter)
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
     tracing_subscriber::fmt()
