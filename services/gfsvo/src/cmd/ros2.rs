@@ -249,15 +249,33 @@ fn frames_received(path: &Path) -> CliResult<Vec<f64>> {
         }
     }
     // Ids are consecutive from 0; a gap (a line lost to a kill) keeps its neighbour's stamp.
-    let last = stamps.keys().next_back().copied().unwrap_or(0);
-    let mut out = Vec::with_capacity(stamps.len());
-    let mut previous = 0.0;
-    for id in 0..=last {
-        previous = stamps.get(&id).copied().unwrap_or(previous);
-        if stamps.is_empty() {
-            break;
-        }
-        out.push(previous);
+    let Some(&last) = stamps.keys().next_back() else {
+        return Ok(Vec::new());
+    };
+    let mut previous = stamps.values().next().copied().unwrap_or_default();
+    Ok((0..=last)
+        .map(|id| {
+            previous = stamps.get(&id).copied().unwrap_or(previous);
+            previous
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_received_are_listed_by_id_with_gaps_filled() {
+        let dir = std::env::temp_dir().join(format!("gfsvo-ros2-frames-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(FRAMES_FILE);
+        assert!(
+            frames_received(&path).unwrap().is_empty(),
+            "no file: no frame"
+        );
+        std::fs::write(&path, "0 10.5\n1 10.6\nnot a line\n3 10.8\n").unwrap();
+        assert_eq!(frames_received(&path).unwrap(), [10.5, 10.6, 10.6, 10.8]);
+        let _ = std::fs::remove_dir_all(&dir);
     }
-    Ok(out)
 }
