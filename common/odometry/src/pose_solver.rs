@@ -10,7 +10,7 @@ use gfs_core::ids::{MapLineId, MapPointId};
 use gfs_optim::{
     LineObservation, PointObservation, PoseOptimizerConfig, PoseResult, optimize_pose,
 };
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Matrix6};
 
 /// Inlier counts of a pose optimisation.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -70,6 +70,7 @@ impl PoseSolver {
         point_ids: &mut [Option<MapPointId>],
         line_ids: &mut [Option<MapLineId>],
     ) -> Inliers {
+        self.result.covariance = None;
         self.points.clear();
         self.point_index.clear();
         for (i, id) in point_ids.iter().enumerate() {
@@ -129,6 +130,11 @@ impl PoseSolver {
             points: self.result.num_point_inliers,
             lines: self.result.num_line_inliers,
         }
+    }
+
+    /// The covariance of the last solved pose ([`gfs_optim::PoseResult::covariance`]).
+    pub fn covariance(&self) -> Option<Matrix6<f64>> {
+        self.result.covariance
     }
 }
 

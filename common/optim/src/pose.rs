@@ -102,6 +102,11 @@ pub struct PoseResult {
     /// the last estimate still in `camera_from_world` (the tracker may mark the frame
     /// degraded).
     pub converged: bool,
+    /// Covariance of the converged pose: the inverse of the information `J^T W J` of
+    /// the final inliers at the solution (no robust weights), over the left
+    /// perturbation `exp(delta) * camera_from_world`, `delta` = (translation, rotation)
+    /// in the camera frame. `None` when not converged or the information is singular.
+    pub covariance: Option<Matrix6<f64>>,
 }
 
 /// Relative cost decrease below which LM has converged.
@@ -166,6 +171,12 @@ pub fn optimize_pose(
     result.converged &= result.num_point_inliers + result.num_line_inliers > 0;
     result.camera_from_world = pose;
     result.rms_error_px = problem.inlier_rms(&pose, result);
+    result.covariance = if result.converged {
+        let information = problem.linearize(&pose, result, false).h;
+        information.cholesky().map(|c| c.inverse())
+    } else {
+        None
+    };
 }
 
 /// The borrowed inputs of one pose optimisation.

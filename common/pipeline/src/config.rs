@@ -39,6 +39,9 @@ pub struct Config {
     /// `[pipeline]`: deadlines, resends and the restart policy of the stage services.
     #[serde(default)]
     pub pipeline: PipelineConfig,
+    /// `[ros2]`: topics, frames and lost-tracking output of the ROS 2 stage and bags.
+    #[serde(default)]
+    pub ros2: gfs_ros2::Ros2Config,
 }
 
 /// `[pipeline]`: how long stages wait for each other and how dead stages are restarted.
@@ -163,7 +166,8 @@ impl Config {
         self.pipeline
             .scheduling
             .validate()
-            .map_err(|e| e.to_string())
+            .map_err(|e| e.to_string())?;
+        self.ros2.validate()
     }
 
     /// The config in `path`; else the folder's own `synthetic.toml` (written by
@@ -184,6 +188,36 @@ impl Config {
                 Self::built_in(name)
             }
         }
+    }
+
+    /// The TOML text [`Config::load`] parses, and its origin (for a config derived from
+    /// it, such as one with the camera of a bag's CameraInfo).
+    ///
+    /// # Errors
+    /// As [`Config::load`].
+    pub fn source_text(
+        path: Option<&Path>,
+        dataset: &Path,
+    ) -> Result<(String, String), ConfigError> {
+        let own = dataset.join(SYNTHETIC_MARKER);
+        let file = path
+            .map(Path::to_path_buf)
+            .or_else(|| own.is_file().then_some(own));
+        if let Some(file) = file {
+            let text = std::fs::read_to_string(&file).map_err(|source| ConfigError::Read {
+                path: file.display().to_string(),
+                source,
+            })?;
+            return Ok((file.display().to_string(), text));
+        }
+        let name = built_in_for(dataset).ok_or_else(|| ConfigError::UnknownCamera {
+            dataset: dataset.display().to_string(),
+        })?;
+        let text = BUILT_IN.iter().find(|(n, _)| *n == name).map(|(_, t)| *t);
+        Ok((
+            format!("configs/{name}.toml"),
+            text.unwrap_or_default().to_owned(),
+        ))
     }
 
     fn read(path: &Path) -> Result<Self, ConfigError> {

@@ -1,6 +1,7 @@
 //! `source`: decodes the dataset's frames (undistorted gray and depth in metres) and
 //! publishes each once for every other stage to read in place. Lockstep: frame k+1 only
-//! after the pose of frame k. Realtime: at the capture rate (or `max_rate`).
+//! after the pose of frame k. Realtime: at the capture rate (or `max_rate`). A ROS 2 bag
+//! in place of the folder is played by [`super::bag_source`].
 
 use super::context::{POLL, StageContext, StageError};
 use crate::wire::WirePose;
@@ -22,6 +23,9 @@ const CHECKPOINT: &str = "source.bin";
 /// # Errors
 /// [`StageError`] when the dataset cannot be opened or a topic fails.
 pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
+    if gfs_ros2::bag::is_bag(&ctx.settings.dataset) {
+        return super::bag_source::run(ctx);
+    }
     let camera = ctx.config().camera()?;
     let dataset = &ctx.settings.dataset;
     let sequence = Sequence::open(dataset, &camera, &ctx.config().depth)
@@ -193,7 +197,7 @@ impl Playback {
 }
 
 /// Sleeps until `due` seconds after `clock` (or until told to stop).
-fn pace<S: Service>(ctx: &StageContext<S>, clock: Instant, due: f64) {
+pub(super) fn pace<S: Service>(ctx: &StageContext<S>, clock: Instant, due: f64) {
     let due = Duration::from_secs_f64(due.max(0.0));
     while !ctx.stopping() {
         let now = clock.elapsed();
@@ -207,7 +211,7 @@ fn pace<S: Service>(ctx: &StageContext<S>, clock: Instant, due: f64) {
 /// Lockstep: waits for the pose of frame `id` (or a later one), publishing the frame
 /// again when none comes for a while (front-end stages restarted without it). False
 /// when told to stop.
-fn await_pose<S: Service>(
+pub(super) fn await_pose<S: Service>(
     ctx: &StageContext<S>,
     publisher: &TopicPublisher<S, u8>,
     poses: &TopicSubscriber<S, WirePose>,

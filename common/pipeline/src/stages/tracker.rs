@@ -90,17 +90,17 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         mark_ready(&mut header, Stage::Tracker, 0);
         header.mark_started(Stage::Tracker);
         let (id, timestamp) = (features.id, features.timestamp);
-        let (mut pose, request) = if features.is_blank() {
-            (session.skip(id, timestamp), None)
+        let (mut pose, request, covariance) = if features.is_blank() {
+            (session.skip(id, timestamp), None, None)
         } else if let Err(e) = features.check() {
             tracing::warn!("tracker: inconsistent features: {e}; the pose is predicted");
-            (session.skip(id, timestamp), None)
+            (session.skip(id, timestamp), None, None)
         } else {
             match session.process(features) {
-                Ok(out) => (out.pose, out.keyframe),
+                Ok(out) => (out.pose, out.keyframe, out.covariance),
                 Err(e) => {
                     tracing::warn!("tracker: {e}; the pose is predicted");
-                    (session.skip(id, timestamp), None)
+                    (session.skip(id, timestamp), None, None)
                 }
             }
         };
@@ -130,7 +130,8 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         header.mark_finished(Stage::Tracker);
         let predicted = session.predicted_quaternion();
-        let wire = WirePose::new(&pose, predicted.as_ref(), keyframe);
+        let wire =
+            WirePose::new(&pose, predicted.as_ref(), keyframe).with_covariance(covariance.as_ref());
         ports.poses.publish_slice(&header, &[wire])?;
         ctx.made(id.0);
         state.write(CHECKPOINT, &session.checkpoint(), &mut scratch)?;

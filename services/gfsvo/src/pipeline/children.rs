@@ -44,6 +44,7 @@ pub enum ChildError {
 /// The running stage processes.
 pub struct StageProcesses {
     dir: PathBuf,
+    source_executable: Option<String>,
     args: Vec<OsString>,
     children: Vec<(Stage, Child)>,
     policy: RestartPolicy,
@@ -52,7 +53,7 @@ pub struct StageProcesses {
 
 impl StageProcesses {
     /// Starts every stage with `args` (the same for all), scheduled as `scheduling`
-    /// says.
+    /// says; the source role is played by `source_executable` when given (`gfsvo-ros2`).
     ///
     /// # Errors
     /// [`ChildError`] when an executable is missing or cannot start.
@@ -61,15 +62,17 @@ impl StageProcesses {
         args: Vec<OsString>,
         policy: RestartPolicy,
         scheduling: SchedulingConfig,
+        source_executable: Option<String>,
     ) -> Result<Self, ChildError> {
         for stage in Stage::ALL {
-            let path = executable(dir, stage);
+            let path = executable(dir, stage, source_executable.as_deref());
             if !path.is_file() {
                 return Err(ChildError::Missing(path));
             }
         }
         let mut pool = Self {
             dir: dir.to_path_buf(),
+            source_executable,
             args,
             children: Vec::new(),
             policy,
@@ -160,7 +163,7 @@ impl StageProcesses {
     }
 
     fn spawn(&self, stage: Stage) -> Result<Child, ChildError> {
-        let path = executable(&self.dir, stage);
+        let path = executable(&self.dir, stage, self.source_executable.as_deref());
         let mut command = Command::new(&path);
         command.args(&self.args).stdin(Stdio::null());
         let scheduling = self.scheduling.for_stage(stage);
@@ -201,6 +204,9 @@ impl Drop for StageProcesses {
     }
 }
 
-fn executable(dir: &Path, stage: Stage) -> PathBuf {
-    dir.join(format!("gfsvo-{}", stage.name()))
+fn executable(dir: &Path, stage: Stage, source: Option<&str>) -> PathBuf {
+    match (stage, source) {
+        (Stage::Source, Some(name)) => dir.join(name),
+        _ => dir.join(format!("gfsvo-{}", stage.name())),
+    }
 }
