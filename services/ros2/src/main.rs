@@ -44,11 +44,15 @@ fn main() -> ExitCode {
     if let Err(e) = tracing_log::LogTracer::init_with_filter(level) {
         eprintln!("gfsvo-ros2: DDS logs are not shown: {e}");
     }
-    let filter = format!("rustdds=error,ros2_client=error,{}", args.log);
-    let filter = tracing_subscriber::EnvFilter::try_new(filter)
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    let filter =
+        gfs_pipeline::service::log_filter(&format!("rustdds=error,ros2_client=error,{}", args.log))
+            .unwrap_or_else(|e| {
+                eprintln!("gfsvo-ros2: {e}; logging warnings");
+                tracing_subscriber::EnvFilter::new("warn")
+            });
     tracing_subscriber::fmt()
         .with_env_filter(filter)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .with_writer(std::io::stderr)
         .init();
     let result = match &probe_camera {
