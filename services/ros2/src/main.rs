@@ -50,11 +50,7 @@ fn main() -> ExitCode {
                 eprintln!("gfsvo-ros2: {e}; logging warnings");
                 tracing_subscriber::EnvFilter::new("warn")
             });
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .with_writer(std::io::stderr)
-        .init();
+    gfs_pipeline::service::init_logging(filter);
     let result = match &probe_camera {
         Some(path) => stage::probe_camera(&args, path, probe_timeout_s),
         None => stage::run(&args),
