@@ -172,3 +172,44 @@ impl Vocabulary {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::clustered;
+    use crate::train::VocabularyConfig;
+
+    #[test]
+    fn feature_vectors_group_every_feature_under_its_ancestor() {
+        let (_, descriptors) = clustered(40, 25, 30, 6);
+        let images: Vec<Vec<Descriptor>> = descriptors.chunks(100).map(<[_]>::to_vec).collect();
+        let config = VocabularyConfig {
+            branching: 4,
+            levels: 3,
+            seed: 5,
+        };
+        let v = Vocabulary::train(&images, &config, "").expect("valid");
+        let query = &descriptors[..300];
+        let (bow, features) = v.transform_with_features(query, 1);
+        assert_eq!(bow, v.transform(query));
+        let groups = features.groups();
+        assert!(groups.len() <= 4, "{}", groups.len());
+        let mut seen = vec![false; query.len()];
+        for (node, list) in groups {
+            // Level-1 nodes are the root's children.
+            assert!((1..=4).contains(node), "{node}");
+            for &f in list {
+                assert!(!seen[f as usize]);
+                seen[f as usize] = true;
+                assert_eq!(v.word_and_node(&query[f as usize], 1).1, *node);
+            }
+        }
+        assert!(seen.iter().all(|&s| s));
+        // Level 0 puts everything under the root; the leaf level gives words' nodes.
+        let (_, root) = v.transform_with_features(query, 0);
+        assert_eq!(root.groups().len(), 1);
+        let (word, leaf) = v.word_and_node(&query[0], 3);
+        assert_eq!(v.node_of_word[word as usize], leaf);
+        assert!(v.distance_to_word(&query[0]) < 60);
+    }
+}
