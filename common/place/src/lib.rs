@@ -46,6 +46,7 @@
 
 mod bow;
 mod database;
+mod error;
 mod format;
 mod kmedians;
 #[cfg(test)]
@@ -55,7 +56,8 @@ mod vocabulary;
 
 pub use bow::{BowVector, FeatureVector, NodeId, WordId, score};
 pub use database::KeyFrameDatabase;
-pub use format::{FORMAT_VERSION, VocabularyFileError, VocabularyFormatError};
+pub use error::{VocabularyFileError, VocabularyFormatError};
+pub use format::FORMAT_VERSION;
 pub use train::{MAX_BRANCHING, MAX_LEVELS, VocabularyConfig, VocabularyTrainError};
 pub use vocabulary::Vocabulary;
 
