@@ -13,7 +13,7 @@
 //! Tardos 2012). A [`KeyFrameDatabase`] keeps an inverted file from words to keyframes
 //! and ranks the keyframes sharing words with a query. A [`FeatureVector`] groups an
 //! image's features by their node at one level of the tree, so that matching two
-//! keyframes compares descriptors within a shared node only.
+//! keyframes ([`match_by_nodes`]) compares descriptors within a shared node only.
 //!
 //! The shipped vocabulary ([`Vocabulary::default_orb`], `vocabulary/orb.bin`) is
 //! embedded in the binary; `vocabulary/README.md` says how it was made and what it
@@ -49,6 +49,7 @@ mod database;
 mod error;
 mod format;
 mod kmedians;
+mod matching;
 #[cfg(test)]
 mod testing;
 mod train;
@@ -58,6 +59,7 @@ pub use bow::{BowVector, FeatureVector, NodeId, WordId, score};
 pub use database::KeyFrameDatabase;
 pub use error::{VocabularyFileError, VocabularyFormatError};
 pub use format::FORMAT_VERSION;
+pub use matching::{NodeMatchConfig, match_by_nodes};
 pub use train::{MAX_BRANCHING, MAX_LEVELS, VocabularyConfig, VocabularyTrainError};
 pub use vocabulary::Vocabulary;
 

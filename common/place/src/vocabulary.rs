@@ -143,7 +143,10 @@ impl Vocabulary {
 
     /// [`Self::transform`] plus the features grouped by their node at depth `level`
     /// (DBoW2's "direct index"; ORB-SLAM2 uses 4 levels up from the leaves of a
-    /// 6-level tree). Level 2 of a k = 10 tree gives up to 100 groups.
+    /// 6-level tree). With the shipped vocabulary, between two rendered views 6 frames
+    /// apart, [`crate::match_by_nodes`] finds 79 % of the exhaustive matches while
+    /// comparing 11 % of the pairs at level 1, and 51 % comparing 1.4 % at level 2
+    /// (test `node_matching_finds_most_exhaustive_matches_between_two_views`).
     pub fn transform_with_features(
         &self,
         descriptors: &[Descriptor],

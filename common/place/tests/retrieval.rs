@@ -3,7 +3,8 @@
 
 use gfs_core::GrayImage;
 use gfs_core::descriptor::Descriptor;
-use gfs_place::{KeyFrameDatabase, Vocabulary, score};
+use gfs_core::descriptor::hamming;
+use gfs_place::{KeyFrameDatabase, NodeMatchConfig, Vocabulary, match_by_nodes, score};
 use gfs_points::{OrbConfig, OrbExtractor, OrbFeatures};
 use gfs_synth::{NoiseConfig, SceneKind, SynthConfig, SynthSequence, TrajectoryKind};
 
@@ -137,4 +138,74 @@ fn retrieval_on_tum_fr1_rpy() {
     }
     println!("fr1_rpy, first 150 frames: {hits} of {queries} top-1 keyframes overlap");
     assert!(hits * 10 >= queries * 9, "{hits} / {queries}");
+}
+
+/// Exhaustive matching with the thresholds of `match_by_nodes` (nearest in all of `b`,
+/// ratio test, one-to-one keeping the closer claim).
+fn match_exhaustive(
+    a: &[Descriptor],
+    b: &[Descriptor],
+    config: &NodeMatchConfig,
+) -> Vec<(u32, u32)> {
+    let mut claims: Vec<Option<(u32, u32)>> = vec![None; b.len()];
+    for (ia, da) in a.iter().enumerate() {
+        let mut d: Vec<(u32, usize)> = b
+            .iter()
+            .enumerate()
+            .map(|(ib, db)| (hamming(da, db), ib))
+            .collect();
+        d.sort_unstable();
+        let (best, ib) = d[0];
+        let second = d.get(1).map_or(u32::MAX, |x| x.0);
+        if best <= config.max_distance && (best as f32) < config.ratio * second as f32 {
+            let claim = &mut claims[ib];
+            if claim.is_none_or(|(c, _)| best < c) {
+                *claim = Some((best, ia as u32));
+            }
+        }
+    }
+    let mut out: Vec<(u32, u32)> = claims
+        .iter()
+        .enumerate()
+        .filter_map(|(ib, c)| c.map(|(_, ia)| (ia, ib as u32)))
+        .collect();
+    out.sort_unstable();
+    out
+}
+
+#[test]
+fn node_matching_finds_most_exhaustive_matches_between_two_views() {
+    let v = Vocabulary::default_orb();
+    let mut extractor = OrbExtractor::new(OrbConfig::default()).expect("default config");
+    let room = sequence(SceneKind::Room, 9);
+    let a = descriptors(&mut extractor, &room.render(0).gray);
+    let b = descriptors(&mut extractor, &room.render(6).gray);
+    let config = NodeMatchConfig::default();
+    // Share of the exhaustive matches each level must find (measured 0.79 and 0.51).
+    for (level, share) in [(1, 0.7), (2, 0.45)] {
+        let (_, fa) = v.transform_with_features(&a, level);
+        let (_, fb) = v.transform_with_features(&b, level);
+        let compared: usize = fa.common(&fb).map(|(x, y)| x.len() * y.len()).sum();
+        let mut by_nodes = Vec::new();
+        match_by_nodes(&fa, &a, &fb, &b, &config, &mut by_nodes);
+        let exhaustive = match_exhaustive(&a, &b, &config);
+        let shared = by_nodes
+            .iter()
+            .filter(|m| exhaustive.binary_search(m).is_ok())
+            .count();
+        println!(
+            "level {level}: {} node matches ({shared} also exhaustive) vs {} exhaustive, \
+             {:.1} % of the descriptor pairs compared",
+            by_nodes.len(),
+            exhaustive.len(),
+            100.0 * compared as f64 / (a.len() * b.len()) as f64
+        );
+        assert!(exhaustive.len() > 200, "{}", exhaustive.len());
+        assert!(
+            shared as f64 >= share * exhaustive.len() as f64,
+            "{shared} / {}",
+            exhaustive.len()
+        );
+        assert!(compared * 5 < a.len() * b.len());
+    }
 }
