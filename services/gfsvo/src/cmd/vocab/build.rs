@@ -34,6 +34,9 @@ pub struct BuildArgs {
     /// Dataset folders (TUM layout) to train on.
     #[arg(long, num_args = 1..)]
     images: Vec<PathBuf>,
+    /// Config TOML of the dataset folders (default: chosen from each folder's name).
+    #[arg(long)]
+    config: Option<PathBuf>,
     /// Use every N-th frame of the dataset folders.
     #[arg(long, default_value_t = 5)]
     every: usize,
@@ -66,7 +69,11 @@ pub fn run(args: &BuildArgs) -> CliResult {
     let mut images = synthetic_images(args)?;
     let synthetic = images.len();
     for dir in &args.images {
-        images.extend(dataset_images(dir, args.every.max(1))?);
+        images.extend(dataset_images(
+            dir,
+            args.config.as_deref(),
+            args.every.max(1),
+        )?);
     }
     let descriptors: usize = images.iter().map(Vec::len).sum();
     println!(
@@ -126,8 +133,12 @@ fn synthetic_images(args: &BuildArgs) -> CliResult<Vec<Vec<Descriptor>>> {
 }
 
 /// Descriptors of every `every`-th frame of a dataset folder.
-fn dataset_images(dir: &std::path::Path, every: usize) -> CliResult<Vec<Vec<Descriptor>>> {
-    let config = Config::load(None, dir)?;
+fn dataset_images(
+    dir: &std::path::Path,
+    config: Option<&std::path::Path>,
+    every: usize,
+) -> CliResult<Vec<Vec<Descriptor>>> {
+    let config = Config::load(config, dir)?;
     let sequence = Sequence::open(dir, &config.camera()?, &config.depth)?;
     let mut source = DescriptorSource::new(config.points.clone())?;
     let mut images = Vec::new();

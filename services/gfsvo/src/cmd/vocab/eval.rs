@@ -26,6 +26,9 @@ const MAX_TIME_DIFFERENCE: f64 = 0.02;
 pub struct EvalArgs {
     /// Dataset folder in TUM layout with groundtruth.txt.
     dataset: PathBuf,
+    /// Config TOML (default: chosen from the dataset folder name).
+    #[arg(long)]
+    config: Option<PathBuf>,
     /// Vocabulary file [default: the shipped one, gfs_place::Vocabulary::default_orb].
     #[arg(long)]
     vocab: Option<PathBuf>,
@@ -68,7 +71,6 @@ struct Row {
 /// # Errors
 /// Dataset, config, ground truth, vocabulary file and extraction errors.
 pub fn run(args: &EvalArgs) -> CliResult {
-    let frames = load_frames(&args.dataset)?;
     let shipped = match &args.vocab {
         Some(path) => (path.display().to_string(), Vocabulary::load(path)?),
         None => (
@@ -76,6 +78,7 @@ pub fn run(args: &EvalArgs) -> CliResult {
             Vocabulary::default_orb(),
         ),
     };
+    let frames = load_frames(&args.dataset, args.config.as_deref())?;
     let mut vocabularies = vec![shipped];
     if args.train_here {
         let images: Vec<Vec<Descriptor>> = frames.iter().map(|f| f.descriptors.clone()).collect();
@@ -125,8 +128,11 @@ pub fn run(args: &EvalArgs) -> CliResult {
 }
 
 /// Every frame of the dataset that has ground truth, with its ORB descriptors.
-fn load_frames(dir: &std::path::Path) -> CliResult<Vec<EvalFrame>> {
-    let config = Config::load(None, dir)?;
+fn load_frames(
+    dir: &std::path::Path,
+    config: Option<&std::path::Path>,
+) -> CliResult<Vec<EvalFrame>> {
+    let config = Config::load(config, dir)?;
     let sequence = Sequence::open(dir, &config.camera()?, &config.depth)?;
     let gt_path = sequence
         .ground_truth_path()
