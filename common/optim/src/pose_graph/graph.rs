@@ -175,7 +175,10 @@ impl PoseGraph {
     /// Each iteration linearises every edge (analytic Jacobians, left perturbation),
     /// weighs it by the kernel (IRLS), solves the damped normal equations with faer's
     /// sparse Cholesky and keeps the step only if the robust cost decreases. The poses
-    /// left are the best reached.
+    /// left are the best reached. LM starts from the current poses: it converged from
+    /// 100 degrees of yaw drift closed by one loop edge in the tests, not from 200;
+    /// for a loop that far off, first move the loop's side of the graph by the loop
+    /// correction (as ORB-SLAM2 does before its essential-graph optimisation).
     ///
     /// # Errors
     /// [`PoseGraphError::NoFixedNode`] when no node is fixed (while some edge exists),
