@@ -104,6 +104,15 @@ fn bad_graphs_are_errors() {
         ring.graph.add_edge(0, 1, Isometry3::identity(), nan),
         Err(PoseGraphError::NotFinite { what: "edge", .. })
     ));
+    let zero_delta = PoseGraphConfig {
+        kernel: PoseGraphKernel::Cauchy,
+        kernel_delta: 0.0,
+        ..PoseGraphConfig::default()
+    };
+    assert_eq!(
+        ring.graph.optimize(&zero_delta),
+        Err(PoseGraphError::KernelDelta(0.0))
+    );
     ring.graph.set_fixed(0, false);
     assert_eq!(
         ring.graph.optimize(&PoseGraphConfig::default()),

@@ -1,6 +1,6 @@
 //! The pose graph: nodes, edges and the Levenberg-Marquardt loop.
 
-use super::config::{PoseGraphConfig, PoseGraphError, PoseGraphReport};
+use super::config::{PoseGraphConfig, PoseGraphError, PoseGraphKernel, PoseGraphReport};
 use super::edge::{edge_error, linearize_edge};
 use super::system::{NONE, NormalSystem};
 use crate::lm::Damping;
@@ -182,6 +182,7 @@ impl PoseGraph {
     ///
     /// # Errors
     /// [`PoseGraphError::NoFixedNode`] when no node is fixed (while some edge exists),
+    /// [`PoseGraphError::KernelDelta`] for a kernel threshold that is not positive,
     /// [`PoseGraphError::NotFinite`] for a node with a NaN / infinite pose,
     /// [`PoseGraphError::Solver`] when faer cannot set up the factorisation; the poses are
     /// then unchanged.
@@ -197,6 +198,10 @@ impl PoseGraph {
                 what: "node",
                 index,
             });
+        }
+        let delta = config.kernel_delta;
+        if config.kernel != PoseGraphKernel::None && !(delta.is_finite() && delta > 0.0) {
+            return Err(PoseGraphError::KernelDelta(delta));
         }
         if !self.edges.is_empty() && !self.fixed.iter().any(|&f| f) {
             return Err(PoseGraphError::NoFixedNode {
