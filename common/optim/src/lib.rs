@@ -54,6 +54,7 @@
 #![warn(missing_docs)]
 
 mod ba;
+mod degeneracy;
 mod lm;
 mod pose;
 pub mod residuals;
@@ -63,4 +64,8 @@ pub use ba::{
     BaConfig, BaError, BaFlags, BaLineObservation, BaLinePrior, BaManhattan, BaPointObservation,
     BaPose, BaProblem, BaResult, LocalBundleAdjuster, ONE_DEGREE_INFORMATION,
 };
-pub use pose::{LineObservation, PointObservation, PoseOptimizerConfig, PoseResult, optimize_pose};
+pub use degeneracy::{PoseConstraint, analyse_constraint};
+pub use pose::{
+    DepthObservation, LineObservation, PointObservation, PoseOptimizerConfig, PoseResult,
+    optimize_pose, optimize_pose_with_depth,
+};

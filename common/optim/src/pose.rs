@@ -6,8 +6,10 @@
 //! end of each round, the kernel dropped after the second round).
 
 use crate::lm::Damping;
-use crate::residuals::{LineReprojection, PointReprojection, StereoPointReprojection};
-use crate::robust::{CHI2_2DOF_95, CHI2_3DOF_95, DEFAULT_RGBD_BF, Huber};
+use crate::residuals::{
+    LineReprojection, PointReprojection, PointToPlane, StereoPointReprojection,
+};
+use crate::robust::{CHI2_1DOF_95, CHI2_2DOF_95, CHI2_3DOF_95, DEFAULT_RGBD_BF, Huber};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::se3::retract;
 use nalgebra::{Isometry3, Matrix6, SMatrix, SVector, Vector2, Vector3, Vector6};
@@ -40,6 +42,20 @@ pub struct LineObservation {
     pub inv_sigma2: f64,
 }
 
+/// A depth point of the frame associated with a reference surface element (projective
+/// point-to-plane alignment, see [`PointToPlane`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthObservation {
+    /// The frame's depth point, camera frame, metres.
+    pub point_in_camera: Vector3<f64>,
+    /// The reference surface point, world frame, metres (held fixed).
+    pub surface_in_world: Vector3<f64>,
+    /// The reference surface's unit normal, world frame.
+    pub normal_in_world: Vector3<f64>,
+    /// Information of the point-to-plane distance, 1/m^2 (the depth noise of both ends).
+    pub inv_sigma2: f64,
+}
+
 /// Parameters of [`optimize_pose`] (the odometry's TOML table `[tracking.pose]`).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -63,6 +79,9 @@ pub struct PoseOptimizerConfig {
     /// Chi-square threshold of a line observation; default 5.991: its two endpoint
     /// distances are two pixel errors of the same sigma, 2 dof at 95 % as for points.
     pub line_chi2: f64,
+    /// Chi-square threshold (and Huber `sqrt`) of a depth point-to-plane distance;
+    /// default 3.841 (1 dof, 95 %).
+    pub depth_chi2: f64,
 }
 
 impl Default for PoseOptimizerConfig {
@@ -75,6 +94,7 @@ impl Default for PoseOptimizerConfig {
             point_depth_chi2: CHI2_3DOF_95,
             bf: DEFAULT_RGBD_BF,
             line_chi2: CHI2_2DOF_95,
+            depth_chi2: CHI2_1DOF_95,
         }
     }
 }
@@ -92,6 +112,13 @@ pub struct PoseResult {
     pub num_point_inliers: usize,
     /// Number of `true` in `line_inliers`.
     pub num_line_inliers: usize,
+    /// Per depth observation (same order as the input): inlier at the final pose.
+    pub depth_inliers: Vec<bool>,
+    /// Number of `true` in `depth_inliers`.
+    pub num_depth_inliers: usize,
+    /// Information matrix `J^T Omega J` of the inliers at the final pose (no kernel),
+    /// in the left perturbation `[rho; phi]`: which directions the data constrain.
+    pub information: Matrix6<f64>,
     /// RMS of the inliers' residual components (point u / v / disparity errors, line
     /// endpoint distances), pixels, unweighted; 0 without inliers.
     pub rms_error_px: f64,
@@ -102,6 +129,14 @@ pub struct PoseResult {
     /// the last estimate still in `camera_from_world` (the tracker may mark the frame
     /// degraded).
     pub converged: bool,
+}
+
+/// Point-to-plane distance of a depth observation at `pose`, metres.
+fn depth_error(pose: &Isometry3<f64>, obs: &DepthObservation) -> f64 {
+    PointToPlane {
+        point_in_camera: obs.point_in_camera,
+    }
+    .error(pose, &obs.surface_in_world, &obs.normal_in_world)
 }
 
 /// Relative cost decrease below which LM has converged.
@@ -123,10 +158,34 @@ pub fn optimize_pose(
     config: &PoseOptimizerConfig,
     result: &mut PoseResult,
 ) {
+    optimize_pose_with_depth(
+        camera,
+        initial_camera_from_world,
+        points,
+        lines,
+        &[],
+        config,
+        result,
+    );
+}
+
+/// [`optimize_pose`] with depth point-to-plane observations as a third residual block,
+/// robustified and outlier-rejected like the others (`depth_chi2`).
+pub fn optimize_pose_with_depth(
+    camera: &PinholeCamera,
+    initial_camera_from_world: &Isometry3<f64>,
+    points: &[PointObservation],
+    lines: &[LineObservation],
+    depth: &[DepthObservation],
+    config: &PoseOptimizerConfig,
+    result: &mut PoseResult,
+) {
     let problem = PoseProblem {
         camera,
         points,
         lines,
+        depth,
+        depth_huber: Huber::from_chi2(config.depth_chi2),
         point_huber: Huber::from_chi2(config.point_chi2),
         point_depth_huber: Huber::from_chi2(config.point_depth_chi2),
         bf: config.bf,
@@ -137,6 +196,8 @@ pub fn optimize_pose(
     result.point_inliers.resize(points.len(), true);
     result.line_inliers.clear();
     result.line_inliers.resize(lines.len(), true);
+    result.depth_inliers.clear();
+    result.depth_inliers.resize(depth.len(), true);
     result.iterations = 0;
     result.converged = false;
     // Every observation that can be evaluated starts as an inlier (ORB-SLAM2).
@@ -144,15 +205,17 @@ pub fn optimize_pose(
         point: f64::INFINITY,
         point_depth: f64::INFINITY,
         line: f64::INFINITY,
+        depth: f64::INFINITY,
     };
     problem.classify(&pose, &unbounded, result);
     let thresholds = Thresholds {
         point: config.point_chi2,
         point_depth: config.point_depth_chi2,
         line: config.line_chi2,
+        depth: config.depth_chi2,
     };
     for round in 0..config.rounds {
-        if result.num_point_inliers + result.num_line_inliers == 0 {
+        if result.num_point_inliers + result.num_line_inliers + result.num_depth_inliers == 0 {
             break;
         }
         let robust = round < config.robust_rounds;
@@ -163,8 +226,10 @@ pub fn optimize_pose(
         result.converged = converged;
         problem.classify(&pose, &thresholds, result);
     }
-    result.converged &= result.num_point_inliers + result.num_line_inliers > 0;
+    result.converged &=
+        result.num_point_inliers + result.num_line_inliers + result.num_depth_inliers > 0;
     result.camera_from_world = pose;
+    result.information = problem.linearize(&pose, result, false).h;
     result.rms_error_px = problem.inlier_rms(&pose, result);
 }
 
@@ -173,6 +238,8 @@ struct PoseProblem<'a> {
     camera: &'a PinholeCamera,
     points: &'a [PointObservation],
     lines: &'a [LineObservation],
+    depth: &'a [DepthObservation],
+    depth_huber: Huber,
     point_huber: Huber,
     point_depth_huber: Huber,
     bf: f64,
@@ -184,6 +251,7 @@ struct Thresholds {
     point: f64,
     point_depth: f64,
     line: f64,
+    depth: f64,
 }
 
 /// The normal equations of one linearisation.
@@ -260,6 +328,11 @@ impl PoseProblem<'_> {
                     .line_error(pose, obs)
                     .is_some_and(|e| obs.inv_sigma2 * e.norm_squared() <= thresholds.line);
         }
+        for (flag, obs) in result.depth_inliers.iter_mut().zip(self.depth) {
+            let e = depth_error(pose, obs);
+            *flag = obs.inv_sigma2 > 0.0 && obs.inv_sigma2 * e * e <= thresholds.depth;
+        }
+        result.num_depth_inliers = result.depth_inliers.iter().filter(|&&f| f).count();
         result.num_point_inliers = result.point_inliers.iter().filter(|&&f| f).count();
         result.num_line_inliers = result.line_inliers.iter().filter(|&&f| f).count();
     }
@@ -298,6 +371,16 @@ impl PoseProblem<'_> {
         {
             let s = obs.inv_sigma2 * self.line_error(pose, obs)?.norm_squared();
             cost += if robust { self.line_huber.cost(s) } else { s };
+        }
+        for (obs, _) in self
+            .depth
+            .iter()
+            .zip(&result.depth_inliers)
+            .filter(|(_, f)| **f)
+        {
+            let e = depth_error(pose, obs);
+            let s = obs.inv_sigma2 * e * e;
+            cost += if robust { self.depth_huber.cost(s) } else { s };
         }
         cost.is_finite().then_some(cost)
     }
@@ -344,6 +427,23 @@ impl PoseProblem<'_> {
                     robust.then_some(&self.line_huber),
                 );
             }
+        }
+        for (obs, _) in self
+            .depth
+            .iter()
+            .zip(&result.depth_inliers)
+            .filter(|(_, f)| **f)
+        {
+            let l = PointToPlane {
+                point_in_camera: obs.point_in_camera,
+            }
+            .linearize(pose, &obs.surface_in_world, &obs.normal_in_world);
+            n.add(
+                &l.d_pose,
+                &nalgebra::Vector1::new(l.error),
+                obs.inv_sigma2,
+                robust.then_some(&self.depth_huber),
+            );
         }
         n
     }
@@ -448,5 +548,46 @@ mod tests {
             (2, 7.0, 10)
         );
         assert!(toml::from_str::<PoseOptimizerConfig>("round = 2").is_err());
+    }
+
+    #[test]
+    fn depth_on_three_planes_alone_finds_the_pose_and_its_information_is_full() {
+        // A floor (y = 1) and two walls (x = 2, z = 4) seen by depth only, 1 mm sigma;
+        // one wall point is 20 cm off its plane (an outlier).
+        let truth = gfs_core::se3::exp(&Vector6::new(0.1, -0.05, 0.2, 0.05, -0.1, 0.02));
+        let mut depth = Vec::new();
+        for i in 0..8 {
+            for j in 0..8 {
+                let (a, b) = (-1.5 + 0.4 * i as f64, 0.5 + 0.4 * j as f64);
+                for (s, n) in [
+                    (Vector3::new(a, 1.0, b), Vector3::new(0.0, -1.0, 0.0)),
+                    (Vector3::new(2.0, a * 0.5, b), Vector3::new(-1.0, 0.0, 0.0)),
+                    (
+                        Vector3::new(a, a * 0.3 + b * 0.2, 4.0),
+                        Vector3::new(0.0, 0.0, -1.0),
+                    ),
+                ] {
+                    depth.push(DepthObservation {
+                        point_in_camera: (truth * nalgebra::Point3::from(s)).coords,
+                        surface_in_world: s,
+                        normal_in_world: n,
+                        inv_sigma2: 1e6,
+                    });
+                }
+            }
+        }
+        depth[1].point_in_camera += truth.rotation * Vector3::new(-0.2, 0.0, 0.0);
+        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let start = retract(&truth, &Vector6::new(0.03, -0.02, 0.02, 0.02, -0.03, 0.01));
+        let mut result = PoseResult::default();
+        let config = PoseOptimizerConfig::default();
+        optimize_pose_with_depth(&camera, &start, &[], &[], &depth, &config, &mut result);
+        let error = result.camera_from_world * truth.inverse();
+        assert!(result.converged);
+        assert!(error.translation.vector.norm() < 1e-6, "{error}");
+        assert!(error.rotation.angle() < 1e-6);
+        assert!(!result.depth_inliers[1] && result.num_depth_inliers == depth.len() - 1);
+        let constraint = crate::analyse_constraint(&result.information, 2.0, 0.001);
+        assert!(constraint.is_determined(), "{constraint:?}");
     }
 }

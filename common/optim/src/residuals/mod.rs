@@ -13,6 +13,7 @@ mod manhattan;
 mod parallel;
 mod perpendicular;
 mod point;
+mod point_to_plane;
 mod projection;
 mod stereo;
 
@@ -21,6 +22,7 @@ pub use manhattan::{ManhattanAxis, ManhattanLinearization};
 pub use parallel::{ParallelLinearization, ParallelLines};
 pub use perpendicular::{PerpendicularLinearization, PerpendicularLines};
 pub use point::{PointLinearization, PointReprojection};
+pub use point_to_plane::{PointToPlane, PointToPlaneLinearization};
 pub use stereo::{StereoPointLinearization, StereoPointReprojection};
 
 #[cfg(test)]
