@@ -1,5 +1,6 @@
 //! The tracker's input: everything the front-end stages extracted from one frame.
 
+use crate::depth_grid::DepthGrid;
 use gfs_core::ids::FrameId;
 use gfs_lines::{DetectedLine, Line3};
 use gfs_planes::ManhattanAxes;
@@ -30,9 +31,29 @@ pub struct FrameFeatures {
     pub lines3d: Vec<Line3>,
     /// Manhattan axes of the frame, in the camera frame, if the scene showed structure.
     pub manhattan: Option<ManhattanAxes>,
+    /// The frame's depth, sub-sampled points and normals (empty when the planes stage
+    /// did not run or does not deliver it).
+    #[serde(default)]
+    pub depth: DepthGrid,
 }
 
 impl FrameFeatures {
+    /// A copy without the depth grid, which serves the tracker's next frame only (the
+    /// map's keyframes do not keep it).
+    pub fn without_depth(&self) -> Self {
+        Self {
+            id: self.id,
+            timestamp: self.timestamp,
+            keypoints: self.keypoints.clone(),
+            point_descriptors: self.point_descriptors.clone(),
+            lines: self.lines.clone(),
+            line_descriptors: self.line_descriptors.clone(),
+            lines3d: self.lines3d.clone(),
+            manhattan: self.manhattan,
+            depth: DepthGrid::default(),
+        }
+    }
+
     /// Checks that the parallel vectors have matching lengths.
     ///
     /// # Errors

@@ -2,6 +2,7 @@
 //! frame, chained as the points / lines / planes services chain them in the pipeline.
 //! This is the `inline` mode's front end and the tests' way to make [`FrameFeatures`].
 
+use crate::depth_grid::DepthGrid;
 use crate::frame::FrameFeatures;
 use gfs_core::ImageView;
 use gfs_core::camera::PinholeCamera;
@@ -62,6 +63,12 @@ impl StructureExtractor {
         })
     }
 
+    /// The last frame's depth points and normals, every [`DEPTH_GRID_STEP`]-th node of
+    /// the normal grid, into `out`.
+    pub fn depth_grid(&self, out: &mut DepthGrid) {
+        out.sample(self.planes.normals(), DEPTH_GRID_STEP);
+    }
+
     /// The axes the next frame's are labelled against (the estimator's history).
     pub fn previous_axes(&self) -> Option<&Rotation3<f64>> {
         self.manhattan.previous()
@@ -102,6 +109,10 @@ impl StructureExtractor {
         ))
     }
 }
+
+/// Sub-sampling of the plane stage's normal grid (4 px) kept for the depth alignment:
+/// an 8 px grid.
+pub const DEPTH_GRID_STEP: usize = 2;
 
 /// Points, lines and planes extractors with their reusable scratch.
 pub struct Frontend {
@@ -174,6 +185,7 @@ impl Frontend {
         }
         let lines_done = Instant::now();
         let mut manhattan = None;
+        let mut depth_grid = DepthGrid::default();
         if self.use_manhattan {
             manhattan = self.structure.extract(
                 &depth,
@@ -181,6 +193,7 @@ impl Frontend {
                 &self.line_out.lines3d,
                 predicted_rotation,
             )?;
+            self.structure.depth_grid(&mut depth_grid);
         }
         self.timings = FrontendTimings {
             points: points_done - start,
@@ -196,6 +209,7 @@ impl Frontend {
             line_descriptors: self.line_out.descriptors.clone(),
             lines3d: self.line_out.lines3d.clone(),
             manhattan,
+            depth: depth_grid,
         })
     }
 }

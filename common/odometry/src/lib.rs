@@ -27,6 +27,8 @@
 #![warn(missing_docs)]
 
 mod config;
+mod depth_alignment;
+mod depth_grid;
 mod frame;
 mod frontend;
 mod keyframe_policy;
@@ -52,8 +54,12 @@ mod tracker;
 mod validate;
 
 pub use config::{KeyframeConfig, MappingConfig, OdometryConfig, TrackingConfig};
+pub use depth_alignment::{
+    DepthAlignmentConfig, DepthAssociator, kinect_depth_sigma, self_information,
+};
+pub use depth_grid::DepthGrid;
 pub use frame::{FeatureError, FrameFeatures};
-pub use frontend::{Frontend, FrontendError, FrontendTimings, StructureExtractor};
+pub use frontend::{DEPTH_GRID_STEP, Frontend, FrontendError, FrontendTimings, StructureExtractor};
 pub use keyframe_policy::{KeyframeContext, needs_keyframe};
 pub use manhattan::WorldManhattan;
 pub use mapper::Mapper;

@@ -87,7 +87,7 @@ impl Mapper {
         let keyframe = KeyFrame {
             id: map.next_keyframe_id(),
             camera_from_world: frame.camera_from_world,
-            features: frame.features.clone(),
+            features: frame.features.without_depth(),
             point_ids: frame.point_ids.clone(),
             line_ids: frame.line_ids.clone(),
         };

@@ -8,9 +8,10 @@ use crate::observation::{KeypointMeasurement, LINE_INV_SIGMA2, observed_line};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{MapLineId, MapPointId};
 use gfs_optim::{
-    LineObservation, PointObservation, PoseOptimizerConfig, PoseResult, optimize_pose,
+    DepthObservation, LineObservation, PointObservation, PoseOptimizerConfig, PoseResult,
+    optimize_pose_with_depth,
 };
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Matrix6};
 
 /// Inlier counts of a pose optimisation.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -19,6 +20,9 @@ pub struct Inliers {
     pub points: usize,
     /// Map lines whose endpoint-to-line errors passed it.
     pub lines: usize,
+    /// Depth point-to-plane pairs that passed it (0 without the depth alignment).
+    #[serde(default)]
+    pub depth: usize,
 }
 
 impl Inliers {
@@ -38,6 +42,7 @@ pub struct PoseSolver {
     point_index: Vec<usize>,
     lines: Vec<LineObservation>,
     line_index: Vec<usize>,
+    depth: Vec<DepthObservation>,
     result: PoseResult,
 }
 
@@ -52,8 +57,20 @@ impl PoseSolver {
             point_index: Vec::new(),
             lines: Vec::new(),
             line_index: Vec::new(),
+            depth: Vec::new(),
             result: PoseResult::default(),
         }
+    }
+
+    /// The depth pairs the next [`Self::solve`] adds (none until set).
+    pub fn set_depth(&mut self, observations: &[DepthObservation]) {
+        self.depth.clear();
+        self.depth.extend_from_slice(observations);
+    }
+
+    /// Information matrix of the last solve's inliers (left perturbation `[rho; phi]`).
+    pub fn information(&self) -> &Matrix6<f64> {
+        &self.result.information
     }
 
     /// Optimises `camera_from_world` from the matches in `point_ids` / `line_ids`; the
@@ -103,14 +120,16 @@ impl PoseSolver {
             });
             self.line_index.push(j);
         }
-        if self.points.is_empty() && self.lines.is_empty() {
+        if self.points.is_empty() && self.lines.is_empty() && self.depth.is_empty() {
+            self.result.information = Matrix6::zeros();
             return Inliers::default();
         }
-        optimize_pose(
+        optimize_pose_with_depth(
             &self.camera,
             camera_from_world,
             &self.points,
             &self.lines,
+            &self.depth,
             &self.config,
             &mut self.result,
         );
@@ -128,6 +147,7 @@ impl PoseSolver {
         Inliers {
             points: self.result.num_point_inliers,
             lines: self.result.num_line_inliers,
+            depth: self.result.num_depth_inliers,
         }
     }
 }
@@ -162,7 +182,7 @@ mod tests {
         assert!(error.translation.vector.norm() < 1e-6, "{error}");
         assert!(error.rotation.angle() < 1e-6);
         assert_eq!(point_ids[0], None, "the outlier is unlinked");
-        assert_eq!((inliers.points, inliers.lines), (149, 10));
+        assert_eq!((inliers.points, inliers.lines, inliers.depth), (149, 10, 0));
         assert_eq!(inliers.total(), 159);
     }
 

@@ -138,6 +138,7 @@ impl Scene {
             lines,
             lines3d,
             manhattan: None,
+            depth: Default::default(),
         }
     }
 }

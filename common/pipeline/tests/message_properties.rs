@@ -60,6 +60,7 @@ fn features(rng: &mut SplitMix64, id: u64) -> FrameFeatures {
             })
             .collect(),
         manhattan: None,
+        depth: Default::default(),
     }
 }
 

@@ -215,6 +215,7 @@ impl TrackingSession {
             status = %frame.status,
             points = frame.inliers.points,
             lines = frame.inliers.lines,
+            depth = frame.inliers.depth,
             keyframe = wants_keyframe,
             keyframes = self.map.keyframe_count(),
             "tracked"
@@ -343,9 +344,23 @@ impl TrackingSession {
         let with_depth = features.keypoints.iter().filter(|k| k.depth > 0.0).count();
         let predicted = self.tracker.predict().unwrap_or_else(Isometry3::identity);
         let mut frame = TrackedFrame::untracked(features, predicted);
-        if with_depth >= self.config.tracking.min_initial_points {
+        if with_depth >= self.config.tracking.min_initial_points || self.depth_determines(&frame) {
             frame.status = TrackingStatus::Tracked;
         }
         frame
+    }
+
+    /// With the depth alignment, a frame whose depth alone determines a pose may start
+    /// a map whatever its keypoints (a low-texture room).
+    fn depth_determines(&self, frame: &TrackedFrame) -> bool {
+        let tracking = &self.config.tracking;
+        tracking.use_depth_alignment
+            && !frame.features.depth.is_empty()
+            && gfs_optim::analyse_constraint(
+                &crate::depth_alignment::self_information(&tracking.depth, &frame.features.depth),
+                tracking.depth.lever_arm_m,
+                tracking.depth.max_sigma_m,
+            )
+            .is_determined()
     }
 }

@@ -7,6 +7,7 @@
 //! The tracker reads the map and never changes it: what it saw of each landmark goes
 //! into [`Sightings`], which travel to the map's owner with the next keyframe request.
 
+mod depth;
 mod local_map;
 mod strategies;
 mod tracked_frame;
@@ -14,6 +15,7 @@ mod tracked_frame;
 pub use tracked_frame::TrackedFrame;
 
 use crate::config::TrackingConfig;
+use crate::depth_alignment::DepthAssociator;
 use crate::frame::FrameFeatures;
 use crate::map::Map;
 use crate::matching::{
@@ -76,6 +78,9 @@ pub struct Tracker {
     ransac: RigidRansac,
     correspondences: Vec<Correspondence>,
     correspondence_keypoints: Vec<(usize, MapPointId)>,
+    depth_associator: DepthAssociator,
+    /// Depth pairs of the last association pass.
+    depth_pairs: usize,
 }
 
 impl Tracker {
@@ -101,6 +106,8 @@ impl Tracker {
             ransac: RigidRansac::default(),
             correspondences: Vec::new(),
             correspondence_keypoints: Vec::new(),
+            depth_associator: DepthAssociator::default(),
+            depth_pairs: 0,
             config,
             camera,
         }
@@ -194,12 +201,24 @@ impl Tracker {
         if ok || self.last.is_none() {
             ok = self.track_local_map(map, &mut frame, sightings);
         }
+        let use_depth = self.config.use_depth_alignment;
         if ok {
-            frame.status = if frame.inliers.total() < self.config.degraded_inliers {
-                TrackingStatus::Degraded
+            if use_depth {
+                self.refine_with_depth(map, &mut frame);
+                frame.status = self.status_from_information();
             } else {
-                TrackingStatus::Tracked
-            };
+                frame.status = if frame.inliers.total() < self.config.degraded_inliers {
+                    TrackingStatus::Degraded
+                } else {
+                    TrackingStatus::Tracked
+                };
+            }
+            return frame;
+        }
+        frame.restart(&predicted);
+        frame.inliers = Inliers::default();
+        if use_depth && self.track_on_depth(map, &mut frame) {
+            frame.status = self.status_from_information();
             return frame;
         }
         frame.restart(&predicted);
