@@ -151,6 +151,7 @@ impl DepthAssociator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::{CORNER, planes_depth};
 
     /// A grid of the plane z = `depth` seen from the identity, normals towards the
     /// camera.
@@ -178,59 +179,29 @@ mod tests {
         grid
     }
 
-    /// The depth grid of a corner of three planes (floor y = 1, walls x = 1.2 and z = 4,
-    /// world frame) seen from `camera_from_world`.
-    pub(crate) fn corner(camera: &PinholeCamera, camera_from_world: &Isometry3<f64>) -> DepthGrid {
-        let stride = 8u32;
-        let (w, h) = (camera.width as u32 / stride, camera.height as u32 / stride);
-        let mut grid = DepthGrid {
-            stride_px: stride,
-            width: w,
-            height: h,
-            ..DepthGrid::default()
+    #[test]
+    fn a_corner_determines_a_pose_and_a_corridor_leaves_its_axis_free() {
+        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let config = DepthAlignmentConfig::default();
+        let analyse = |grid: &DepthGrid| {
+            gfs_optim::analyse_constraint(
+                &self_information(&config, grid),
+                config.lever_arm_m,
+                config.max_sigma_m,
+            )
         };
-        let planes = [
-            (nalgebra::Vector3::new(0.0, 1.0, 0.0), 1.0),
-            (nalgebra::Vector3::new(1.0, 0.0, 0.0), 1.2),
-            (nalgebra::Vector3::new(0.0, 0.0, 1.0), 4.0),
-        ];
-        let world_from_camera = camera_from_world.inverse();
-        let centre = world_from_camera.translation.vector;
-        for j in 0..h {
-            for i in 0..w {
-                let (u, v) = (
-                    (i * stride + stride / 2) as f64,
-                    (j * stride + stride / 2) as f64,
-                );
-                let ray_c = nalgebra::Vector3::new(
-                    (u - camera.cx) / camera.fx,
-                    (v - camera.cy) / camera.fy,
-                    1.0,
-                );
-                let ray = world_from_camera.rotation * ray_c;
-                let hit = planes
-                    .iter()
-                    .filter_map(|(n, d)| {
-                        let t = (d - n.dot(&centre)) / n.dot(&ray);
-                        (t > 0.0 && t.is_finite()).then_some((t, *n))
-                    })
-                    .min_by(|a, b| a.0.total_cmp(&b.0));
-                let Some((t, n)) = hit else {
-                    grid.points.push([0.0; 3]);
-                    grid.normals.push([0.0; 3]);
-                    continue;
-                };
-                let p_c = ray_c * (t * (world_from_camera.rotation * ray_c).norm() / ray.norm());
-                let mut n_c = camera_from_world.rotation * n;
-                if n_c.dot(&p_c) > 0.0 {
-                    n_c = -n_c;
-                }
-                grid.points.push([p_c.x as f32, p_c.y as f32, p_c.z as f32]);
-                grid.normals
-                    .push([n_c.x as f32, n_c.y as f32, n_c.z as f32]);
-            }
+        let corner = planes_depth(&camera, &Isometry3::identity(), &CORNER);
+        assert!(analyse(&corner).is_determined());
+        let walls = [([1.0, 0.0, 0.0], -1.0), ([1.0, 0.0, 0.0], 1.0)];
+        let corridor = analyse(&planes_depth(&camera, &Isometry3::identity(), &walls));
+        // Free: along the corridor (z), up (y) and the roll about the walls' normal (x).
+        assert_eq!(corridor.unconstrained.len(), 3, "{corridor:?}");
+        for d in &corridor.unconstrained {
+            assert!(
+                d[0].abs() < 1e-6 && d[4].abs() < 1e-6 && d[5].abs() < 1e-6,
+                "{d}"
+            );
         }
-        grid
     }
 
     #[test]
@@ -238,12 +209,12 @@ mod tests {
         let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
         let config = DepthAlignmentConfig::default();
         let last_pose = Isometry3::identity();
-        let last = corner(&camera, &last_pose);
+        let last = planes_depth(&camera, &last_pose, &CORNER);
         // 2 cm and 1.5 degrees about a tilted axis, from the last pose as prediction.
         let truth = gfs_core::se3::exp(&nalgebra::Vector6::new(
             0.02, -0.01, 0.015, 0.01, 0.02, -0.012,
         ));
-        let current = corner(&camera, &truth);
+        let current = planes_depth(&camera, &truth, &CORNER);
         let mut pose = last_pose;
         let mut associator = DepthAssociator::default();
         let mut result = gfs_optim::PoseResult::default();

@@ -93,3 +93,77 @@ impl Tracker {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::config::TrackingConfig;
+    use crate::frame::FrameFeatures;
+    use crate::map::Map;
+    use crate::sightings::Sightings;
+    use crate::status::TrackingStatus;
+    use crate::testing::{CORNER, camera, planes_depth, scale};
+    use crate::tracker::{TrackedFrame, Tracker};
+    use gfs_core::ids::FrameId;
+    use gfs_lines::grid::GridConfig;
+    use nalgebra::{Isometry3, Vector6};
+
+    fn tracker() -> Tracker {
+        let config = TrackingConfig {
+            use_depth_alignment: true,
+            ..TrackingConfig::default()
+        };
+        Tracker::new(config, camera(), scale(), &GridConfig::default())
+    }
+
+    fn frame(
+        k: u64,
+        camera_from_world: &Isometry3<f64>,
+        planes: &[([f64; 3], f64)],
+    ) -> FrameFeatures {
+        FrameFeatures {
+            id: FrameId(k),
+            timestamp: k as f64 / 30.0,
+            depth: planes_depth(&camera(), camera_from_world, planes),
+            ..FrameFeatures::default()
+        }
+    }
+
+    #[test]
+    fn three_planes_alone_are_tracked_frame_after_frame() {
+        // No point, no line: a floor and two walls, the camera moving 1 cm and 0.6
+        // degrees per frame about a tilted axis.
+        let mut tracker = tracker();
+        let map = Map::default();
+        let step = gfs_core::se3::exp(&Vector6::new(0.01, -0.004, 0.006, 0.004, 0.008, -0.005));
+        let mut truth = Isometry3::identity();
+        let mut first = TrackedFrame::untracked(frame(0, &truth, &CORNER), truth);
+        first.status = TrackingStatus::Tracked;
+        tracker.finish_frame(first);
+        let mut sightings = Sightings::default();
+        for k in 1..8 {
+            truth = step * truth;
+            let tracked = tracker.track(&map, frame(k, &truth, &CORNER), &mut sightings);
+            let error = tracked.camera_from_world * truth.inverse();
+            assert_eq!(tracked.status, TrackingStatus::Tracked, "frame {k}");
+            assert!(error.translation.vector.norm() < 1e-3, "frame {k}: {error}");
+            assert!(error.rotation.angle() < 0.1f64.to_radians(), "frame {k}");
+            tracker.finish_frame(tracked);
+        }
+    }
+
+    #[test]
+    fn two_parallel_walls_do_not_track_a_frame_on_depth() {
+        // A corridor's two walls (x = -1, x = 1) leave its axis free: the frame keeps
+        // the prediction instead of a pose along an unconstrained direction.
+        let walls = [([1.0, 0.0, 0.0], -1.0), ([1.0, 0.0, 0.0], 1.0)];
+        let mut tracker = tracker();
+        let map = Map::default();
+        let start = Isometry3::identity();
+        let mut first = TrackedFrame::untracked(frame(0, &start, &walls), start);
+        first.status = TrackingStatus::Tracked;
+        tracker.finish_frame(first);
+        let moved = Isometry3::translation(0.0, 0.0, -0.02);
+        let tracked = tracker.track(&map, frame(1, &moved, &walls), &mut Sightings::default());
+        assert_eq!(tracked.status, TrackingStatus::Predicted);
+    }
+}
