@@ -45,6 +45,7 @@ fn run(
         config.tracking.use_manhattan,
     )
     .unwrap();
+    frontend.set_keep_depth(config.tracking.use_depth_alignment);
     let mut odometry = Odometry::new(
         config,
         camera,

@@ -119,6 +119,7 @@ pub struct Frontend {
     camera: PinholeCamera,
     use_lines: bool,
     use_manhattan: bool,
+    keep_depth: bool,
     orb: OrbExtractor,
     orb_out: OrbFeatures,
     lines: LineExtractor,
@@ -152,7 +153,15 @@ impl Frontend {
             camera,
             use_lines,
             use_manhattan,
+            keep_depth: false,
         })
+    }
+
+    /// Whether the frames carry their depth grid ([`FrameFeatures::depth`], for
+    /// `[tracking] use_depth_alignment`; it needs the planes stage, `use_manhattan`).
+    /// Off by default: the grid is 115 kB a frame.
+    pub fn set_keep_depth(&mut self, keep: bool) {
+        self.keep_depth = keep;
     }
 
     /// Stage timings of the last [`Self::extract`].
@@ -193,7 +202,9 @@ impl Frontend {
                 &self.line_out.lines3d,
                 predicted_rotation,
             )?;
-            self.structure.depth_grid(&mut depth_grid);
+            if self.keep_depth {
+                self.structure.depth_grid(&mut depth_grid);
+            }
         }
         self.timings = FrontendTimings {
             points: points_done - start,
