@@ -170,11 +170,14 @@ impl MsgHeader {
         }
     }
 
-    /// End-to-end latency in ns from the source's "started" stamp to the latest
-    /// "finished" stamp of any stage, when both exist.
+    /// End-to-end latency in ns: the source's "started" stamp (the frame is published)
+    /// to the tracker's "finished" stamp (its pose is out), when both exist. A keyframe's
+    /// local mapping comes after its pose and is the mapper's own processing time.
     pub fn end_to_end_ns(&self) -> Option<u64> {
-        let last = self.stamps.iter().map(|s| s.finished_ns).max()?;
-        span(self.stamp(Stage::Source).started_ns, last)
+        span(
+            self.stamp(Stage::Source).started_ns,
+            self.stamp(Stage::Tracker).finished_ns,
+        )
     }
 }
 
@@ -221,10 +224,16 @@ mod tests {
             started_ns: 150,
             finished_ns: 400,
         };
+        h.stamp_mut(Stage::Mapper).finished_ns = 30_000;
+        assert_eq!(h.end_to_end_ns(), None, "no pose yet");
         h.stamp_mut(Stage::Tracker).finished_ns = 1_000;
         assert_eq!(h.stamp(Stage::Source).queueing_ns(), Some(50));
         assert_eq!(h.stamp(Stage::Source).processing_ns(), Some(250));
         assert_eq!(h.stamp(Stage::Tracker).processing_ns(), None);
-        assert_eq!(h.end_to_end_ns(), Some(850));
+        assert_eq!(
+            h.end_to_end_ns(),
+            Some(850),
+            "the mapping after the pose is not counted"
+        );
     }
 }

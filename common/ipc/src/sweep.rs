@@ -10,7 +10,7 @@
 //! older build). Nothing of a live run is ever touched.
 
 use std::path::{Path, PathBuf};
-use std::time::{Duration, SystemTime};
+use std::time::{Duration, Instant, SystemTime};
 
 use iceoryx2::node::{DeadNodeView, NodeState, NodeView};
 use iceoryx2::prelude::{CallbackProgression, Node, ipc};
@@ -21,6 +21,13 @@ use crate::run::{IPC_ROOT, IpcRun, RunId, SHM_DIR};
 
 /// Folder of the run id locks (`<run-id>.lock`).
 pub const LOCK_DIR: &str = "/tmp/gfsvo-runs";
+
+/// How long a run waits for its id's lock before it takes the id for in use: longer than
+/// another run's sweep holds it to look at the id.
+const CLAIM_PATIENCE: Duration = Duration::from_secs(1);
+
+/// Pause between two tries of the id's lock.
+const CLAIM_RETRY: Duration = Duration::from_millis(20);
 
 /// A run with no node whose newest file is younger than this may be starting.
 pub const STARTING_GRACE: Duration = Duration::from_secs(20);
@@ -62,10 +69,21 @@ impl IpcRun {
     /// [`IpcError::RunInUse`] when a live run holds the id's lock; [`IpcError::Lock`]
     /// when the lock file cannot be created.
     pub fn claim(&self) -> Result<RunClaim, IpcError> {
-        let lock = lock_run(self.run_id())?.map_err(|by| IpcError::RunInUse {
-            run: self.run_id().to_string(),
-            by,
-        })?;
+        // Another run's sweep holds the lock while it checks whether this id is dead (a
+        // few milliseconds); only a lock held past that is a live run.
+        let deadline = Instant::now() + CLAIM_PATIENCE;
+        let lock = loop {
+            match lock_run(self.run_id())? {
+                Ok(lock) => break lock,
+                Err(_) if Instant::now() < deadline => std::thread::sleep(CLAIM_RETRY),
+                Err(by) => {
+                    return Err(IpcError::RunInUse {
+                        run: self.run_id().to_string(),
+                        by,
+                    });
+                }
+            }
+        };
         match remove_if_dead(self, Duration::ZERO)? {
             Liveness::Live(who) => {
                 tracing::debug!(run = %self.run_id(), "files kept: {who}");
@@ -315,4 +333,36 @@ fn lock_ids() -> Vec<String> {
             Some(name.strip_suffix(".lock")?.to_owned())
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(tag: &str) -> IpcRun {
+        let id = format!("sw{tag}{}", std::process::id() % 100_000);
+        IpcRun::new(RunId::new(&id).unwrap()).unwrap()
+    }
+
+    #[test]
+    fn a_claim_waits_out_another_runs_brief_look_at_the_id() {
+        let run = run("brief");
+        // Another run's sweep holds the id's lock while it looks at it.
+        let probe = lock_run(run.run_id()).unwrap().unwrap();
+        let release = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(200));
+            drop(probe);
+        });
+        let claim = run.claim();
+        release.join().unwrap();
+        assert!(claim.is_ok(), "{claim:?}");
+    }
+
+    #[test]
+    fn a_lock_held_past_the_patience_is_a_run_in_use() {
+        let run = run("held");
+        let _held = lock_run(run.run_id()).unwrap().unwrap();
+        let claim = run.claim();
+        assert!(matches!(claim, Err(IpcError::RunInUse { .. })), "{claim:?}");
+    }
 }

@@ -22,6 +22,7 @@ use iceoryx2::prelude::{Alignment, AllocationStrategy, Node, ZeroCopySend};
 use iceoryx2::sample::Sample;
 use iceoryx2::sample_mut::SampleMut;
 use iceoryx2::service::Service;
+use iceoryx2::service::port_factory::PortFactory as _;
 use iceoryx2::service::port_factory::event::PortFactory as EventService;
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
 
@@ -104,6 +105,7 @@ fn wakeup_error(topic: &str, what: &'static str, reason: impl Debug) -> IpcError
 /// The publishing end of a topic, carrying slices of `T`.
 pub struct TopicPublisher<S: Service, T: Debug + ZeroCopySend + 'static> {
     topic: String,
+    service: TopicService<S, T>,
     port: Publisher<S, [T], MsgHeader>,
     notifier: Notifier<S>,
 }
@@ -151,9 +153,15 @@ impl<S: Service, T: Debug + ZeroCopySend + 'static> TopicPublisher<S, T> {
             .map_err(|e| wakeup_error(&topic, "notifier", e))?;
         Ok(Self {
             topic,
+            service,
             port,
             notifier,
         })
+    }
+
+    /// Subscribers attached to the topic now (every process of the run, and observers).
+    pub fn subscriber_count(&self) -> usize {
+        self.service.dynamic_config().number_of_subscribers()
     }
 
     /// Full service name of the topic.
@@ -241,6 +249,7 @@ impl<S: Service, T: Debug + ZeroCopySend + Copy + 'static> TopicPublisher<S, T> 
 /// The receiving end of a topic, carrying slices of `T`.
 pub struct TopicSubscriber<S: Service, T: Debug + ZeroCopySend + 'static> {
     topic: String,
+    service: TopicService<S, T>,
     port: Subscriber<S, [T], MsgHeader>,
     listener: Listener<S>,
 }
@@ -283,9 +292,15 @@ impl<S: Service, T: Debug + ZeroCopySend + 'static> TopicSubscriber<S, T> {
             .map_err(|e| wakeup_error(&topic, "listener", e))?;
         Ok(Self {
             topic,
+            service,
             port,
             listener,
         })
+    }
+
+    /// Publishers attached to the topic now.
+    pub fn publisher_count(&self) -> usize {
+        self.service.dynamic_config().number_of_publishers()
     }
 
     /// Full service name of the topic.

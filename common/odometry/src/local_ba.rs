@@ -57,13 +57,23 @@ impl LocalMapBa {
     /// on the synthetic rotation sequence, away from a tracked pose within 1 cm of the
     /// truth, and the next frames followed; held, the ATE went from 12 to 8 mm there,
     /// 4.0 to 2.9 mm on the clean synthetic room, and down on TUM fr1 and 7-Scenes.
-    pub fn run(&mut self, map: &mut Map, kf: KeyFrameId, manhattan: &WorldManhattan) {
+    ///
+    /// `stop` is asked before every LM iteration; once it answers true the BA ends at its
+    /// best iterate so far, which is written back like a full run's (the realtime mapper
+    /// yields this way to the next keyframe, or when its time budget is spent).
+    pub fn run(
+        &mut self,
+        map: &mut Map,
+        kf: KeyFrameId,
+        manhattan: &WorldManhattan,
+        stop: &dyn Fn() -> bool,
+    ) {
         let Some(mut problem) = self.assemble(map, kf, manhattan) else {
             return;
         };
-        if let Err(e) = self
-            .solver
-            .optimize(&mut problem, &self.config.ba, &mut self.result)
+        if let Err(e) =
+            self.solver
+                .optimize_until(&mut problem, &self.config.ba, &mut self.result, stop)
         {
             tracing::warn!(keyframe = %kf, "local BA skipped: {e}");
             return;
@@ -80,6 +90,7 @@ impl LocalMapBa {
             initial_cost = self.result.initial_cost,
             final_cost = self.result.final_cost,
             iterations = self.result.iterations,
+            interrupted = self.result.interrupted,
             "local BA"
         );
         for (pose, id) in problem.poses.iter().zip(&self.pose_ids) {

@@ -84,6 +84,18 @@ impl Mapper {
         frame: &TrackedFrame,
         manhattan: &mut WorldManhattan,
     ) -> KeyFrameId {
+        self.add_keyframe_until(map, frame, manhattan, &|| false)
+    }
+
+    /// [`Self::add_keyframe`] with a local BA that stops early once `stop` answers true
+    /// ([`LocalMapBa::run`]).
+    pub fn add_keyframe_until(
+        &mut self,
+        map: &mut Map,
+        frame: &TrackedFrame,
+        manhattan: &mut WorldManhattan,
+        stop: &dyn Fn() -> bool,
+    ) -> KeyFrameId {
         let keyframe = KeyFrame {
             id: map.next_keyframe_id(),
             camera_from_world: frame.camera_from_world,
@@ -101,7 +113,7 @@ impl Mapper {
         self.cull_recent_points(map, kf);
         self.fuse(map, kf);
         if self.config.local_ba {
-            self.ba.run(map, kf, manhattan);
+            self.ba.run(map, kf, manhattan, stop);
         }
         self.cull_keyframes(map, kf);
         self.bound_map(map, kf);

@@ -87,6 +87,7 @@ impl PoseSolver {
         point_ids: &mut [Option<MapPointId>],
         line_ids: &mut [Option<MapLineId>],
     ) -> Inliers {
+        self.result.covariance = None;
         self.points.clear();
         self.point_index.clear();
         for (i, id) in point_ids.iter().enumerate() {
@@ -149,6 +150,11 @@ impl PoseSolver {
             lines: self.result.num_line_inliers,
             depth: self.result.num_depth_inliers,
         }
+    }
+
+    /// The covariance of the last solved pose ([`gfs_optim::PoseResult::covariance`]).
+    pub fn covariance(&self) -> Option<Matrix6<f64>> {
+        self.result.covariance
     }
 }
 

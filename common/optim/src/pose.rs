@@ -129,6 +129,11 @@ pub struct PoseResult {
     /// the last estimate still in `camera_from_world` (the tracker may mark the frame
     /// degraded).
     pub converged: bool,
+    /// Covariance of the converged pose: the inverse of the information `J^T W J` of
+    /// the final inliers at the solution (no robust weights), over the left
+    /// perturbation `exp(delta) * camera_from_world`, `delta` = (translation, rotation)
+    /// in the camera frame. `None` when not converged or the information is singular.
+    pub covariance: Option<Matrix6<f64>>,
 }
 
 /// Point-to-plane distance of a depth observation at `pose`, metres.
@@ -231,6 +236,12 @@ pub fn optimize_pose_with_depth(
     result.camera_from_world = pose;
     result.information = problem.linearize(&pose, result, false).h;
     result.rms_error_px = problem.inlier_rms(&pose, result);
+    result.covariance = if result.converged {
+        let information = problem.linearize(&pose, result, false).h;
+        information.cholesky().map(|c| c.inverse())
+    } else {
+        None
+    };
 }
 
 /// The borrowed inputs of one pose optimisation.

@@ -307,3 +307,48 @@ fn a_depth_prior_holds_lines_where_depth_measured_them() {
         "{error}"
     );
 }
+
+#[test]
+fn an_interrupted_optimisation_keeps_its_best_iterate() {
+    let initial = BaScene::new(&spec(), &mut Rng::new(4));
+    let mut full = BaScene::new(&spec(), &mut Rng::new(4));
+    let complete = run(&mut full, &BaConfig::default());
+    assert!(!complete.interrupted && complete.iterations > 3);
+
+    // Stop before the fourth iteration: the first pass ends there, the second is skipped.
+    for allowed in [0, 3] {
+        let mut scene = BaScene::new(&spec(), &mut Rng::new(4));
+        let asked = std::cell::Cell::new(0usize);
+        let stop = || {
+            asked.set(asked.get() + 1);
+            asked.get() > allowed
+        };
+        let mut result = BaResult::default();
+        LocalBundleAdjuster::new()
+            .optimize_until(&mut scene.problem, &BaConfig::default(), &mut result, &stop)
+            .expect("valid problem");
+        assert!(result.interrupted && !result.converged);
+        assert_eq!(result.iterations, allowed);
+        assert_eq!(asked.get(), allowed + 1, "asked once per iteration");
+        let (t0, _) = initial.max_pose_error();
+        let (t, _) = scene.max_pose_error();
+        let (tf, _) = full.max_pose_error();
+        println!("stopped after {allowed}: pose error {t:.4} m (start {t0:.4}, full {tf:.4})");
+        if allowed == 0 {
+            assert_eq!(t, t0, "no iteration: the problem is unchanged");
+        } else {
+            assert!(result.final_cost < result.initial_cost);
+            assert!(t < t0, "three iterations already lower the pose error");
+        }
+        assert!(
+            result
+                .inliers
+                .point_observations
+                .iter()
+                .filter(|f| **f)
+                .count()
+                > 100,
+            "inliers classified"
+        );
+    }
+}

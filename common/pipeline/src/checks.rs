@@ -110,6 +110,7 @@ impl Config {
         )?;
         t.at_least("resend_after_ms", p.resend_after_ms, 1)?;
         t.at_least("restart_window_s", p.restart_window_s, 1)?;
+        t.at_least("realtime_ba_budget_ms", p.realtime_ba_budget_ms, 1)?;
         let deadline = p
             .lockstep_feature_deadline_ms
             .max(p.realtime_feature_deadline_ms);

@@ -3,6 +3,7 @@
 //! The configs of `configs/` are built into the binary, so that `gfsvo` works from any
 //! folder; `--config FILE` reads any other file with the same tables.
 
+use crate::scheduling::SchedulingConfig;
 use gfs_core::camera::{Camera, CameraConfig};
 use gfs_dataset::DepthConfig;
 use serde::Deserialize;
@@ -38,6 +39,9 @@ pub struct Config {
     /// `[pipeline]`: deadlines, resends and the restart policy of the stage services.
     #[serde(default)]
     pub pipeline: PipelineConfig,
+    /// `[ros2]`: topics, frames and lost-tracking output of the ROS 2 stage and bags.
+    #[serde(default)]
+    pub ros2: gfs_ros2::Ros2Config,
 }
 
 /// `[pipeline]`: how long stages wait for each other and how dead stages are restarted.
@@ -64,6 +68,13 @@ pub struct PipelineConfig {
     /// both feature deadlines (a stage may wait that long for a missing input). Default
     /// 20000.
     pub hang_timeout_ms: u64,
+    /// Realtime: how long a keyframe's local mapping may take before its local BA stops
+    /// at its best iterate, ms; the BA also stops as soon as the next keyframe request
+    /// arrives (ORB-SLAM2's abort flag). Lockstep and inline runs ignore it, so that
+    /// they stay reproducible. Default 40 (README, "Latency").
+    pub realtime_ba_budget_ms: u64,
+    /// `[pipeline.scheduling.<stage>]`: nice level, policy and CPUs of each stage.
+    pub scheduling: SchedulingConfig,
 }
 
 impl Default for PipelineConfig {
@@ -75,6 +86,8 @@ impl Default for PipelineConfig {
             max_restarts: 5,
             restart_window_s: 30,
             hang_timeout_ms: 20_000,
+            realtime_ba_budget_ms: 40,
+            scheduling: SchedulingConfig::default(),
         }
     }
 }
@@ -149,7 +162,12 @@ impl Config {
         self.points.validate().map_err(|e| e.to_string())?;
         self.lines.detect.validate().map_err(|e| e.to_string())?;
         self.planes.validate().map_err(|e| e.to_string())?;
-        self.validate_tables().map_err(|e| e.to_string())
+        self.validate_tables().map_err(|e| e.to_string())?;
+        self.pipeline
+            .scheduling
+            .validate()
+            .map_err(|e| e.to_string())?;
+        self.ros2.validate()
     }
 
     /// The config in `path`; else the folder's own `synthetic.toml` (written by
@@ -170,6 +188,36 @@ impl Config {
                 Self::built_in(name)
             }
         }
+    }
+
+    /// The TOML text [`Config::load`] parses, and its origin (for a config derived from
+    /// it, such as one with the camera of a bag's CameraInfo).
+    ///
+    /// # Errors
+    /// As [`Config::load`].
+    pub fn source_text(
+        path: Option<&Path>,
+        dataset: &Path,
+    ) -> Result<(String, String), ConfigError> {
+        let own = dataset.join(SYNTHETIC_MARKER);
+        let file = path
+            .map(Path::to_path_buf)
+            .or_else(|| own.is_file().then_some(own));
+        if let Some(file) = file {
+            let text = std::fs::read_to_string(&file).map_err(|source| ConfigError::Read {
+                path: file.display().to_string(),
+                source,
+            })?;
+            return Ok((file.display().to_string(), text));
+        }
+        let name = built_in_for(dataset).ok_or_else(|| ConfigError::UnknownCamera {
+            dataset: dataset.display().to_string(),
+        })?;
+        let text = BUILT_IN.iter().find(|(n, _)| *n == name).map(|(_, t)| *t);
+        Ok((
+            format!("configs/{name}.toml"),
+            text.unwrap_or_default().to_owned(),
+        ))
     }
 
     fn read(path: &Path) -> Result<Self, ConfigError> {

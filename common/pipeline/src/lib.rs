@@ -18,6 +18,7 @@
 mod checks;
 pub mod config;
 pub mod progress;
+pub mod scheduling;
 pub mod service;
 pub mod stages;
 pub mod state;

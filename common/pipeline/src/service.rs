@@ -78,11 +78,7 @@ pub fn service_main(stage: Stage) -> ExitCode {
         eprintln!("gfsvo-{}: {e}; logging warnings", stage.name());
         tracing_subscriber::EnvFilter::new("warn")
     });
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .with_writer(std::io::stderr)
-        .init();
+    init_logging(filter);
     match run(stage, &args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -90,6 +86,16 @@ pub fn service_main(stage: Stage) -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// Logs to stderr through `filter`, in colour only on a terminal (the same for every
+/// stage executable).
+pub fn init_logging(filter: tracing_subscriber::EnvFilter) {
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .with_writer(std::io::stderr)
+        .init();
 }
 
 /// The log filter of `--log`: a level (`error`, `warn`, `info`, `debug`, `trace`, `off`)

@@ -8,7 +8,7 @@ use gfs_lines::{DetectedLine, Line3, Segment};
 use gfs_odometry::{FramePose, TrackingStatus};
 use gfs_planes::ManhattanAxes;
 use gfs_points::{Descriptor, KeyPoint};
-use nalgebra::{Isometry3, Matrix3, Quaternion, Rotation3, Translation3, UnitQuaternion};
+use nalgebra::{Isometry3, Matrix3, Matrix6, Quaternion, Rotation3, Translation3, UnitQuaternion};
 
 /// One ORB keypoint with its descriptor (`points` topic).
 #[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
@@ -184,6 +184,9 @@ pub struct WirePose {
     pub status: u32,
     /// 1 when the frame became a keyframe.
     pub keyframe: u32,
+    /// Upper triangle (row by row) of the pose's 6x6 covariance from its optimisation
+    /// (camera-frame translation then rotation); all zero when unknown (predicted).
+    pub covariance: [f64; 21],
 }
 
 impl WirePose {
@@ -205,7 +208,35 @@ impl WirePose {
                 TrackingStatus::Relocalised => 3,
             },
             keyframe: u32::from(keyframe),
+            covariance: [0.0; 21],
         }
+    }
+
+    /// The same pose with the covariance of its optimisation.
+    pub fn with_covariance(mut self, covariance: Option<&Matrix6<f64>>) -> Self {
+        if let Some(c) = covariance {
+            let upper = (0..6).flat_map(|r| (r..6).map(move |k| (r, k)));
+            for (slot, (r, k)) in self.covariance.iter_mut().zip(upper) {
+                *slot = c[(r, k)];
+            }
+        }
+        self
+    }
+
+    /// The covariance, `None` when unknown or not finite.
+    pub fn covariance(&self) -> Option<Matrix6<f64>> {
+        if self.covariance.iter().all(|v| *v == 0.0)
+            || !self.covariance.iter().all(|v| v.is_finite())
+        {
+            return None;
+        }
+        let mut c = Matrix6::zeros();
+        let upper = (0..6).flat_map(|r| (r..6).map(move |k| (r, k)));
+        for (&v, (r, k)) in self.covariance.iter().zip(upper) {
+            c[(r, k)] = v;
+            c[(k, r)] = v;
+        }
+        Some(c)
     }
 
     /// The pose, or `None` when a field is out of range (a corrupt message).
@@ -295,6 +326,14 @@ mod tests {
         assert_eq!(w.pose(), Some(pose));
         assert_eq!(w.predicted_rotation(), Some(r.to_rotation_matrix()));
         assert_eq!(WirePose::new(&pose, None, false).predicted_rotation(), None);
+        assert_eq!(w.covariance(), None);
+        // deploy/iceoryx2.toml documents the layout for other languages.
+        assert_eq!(std::mem::size_of::<WirePose>(), 280);
+        let c = Matrix6::from_fn(|r, k| 1.0 / (1.0 + r as f64 + k as f64));
+        assert_eq!(w.with_covariance(Some(&c)).covariance(), Some(c));
+        let mut bad = w.with_covariance(Some(&c));
+        bad.covariance[3] = f64::NAN;
+        assert_eq!(bad.covariance(), None);
     }
 
     #[test]

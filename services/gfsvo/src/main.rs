@@ -36,6 +36,8 @@ enum Command {
     /// Run the odometry on a dataset folder (default: the built-in synthetic sequence):
     /// writes trajectory.txt and status.txt, prints the ATE and the time per stage.
     Run(cmd::run::RunArgs),
+    /// Write a dataset folder as a ROS 2 bag (MCAP, CDR) on an RGB-D driver's topics.
+    Convert(cmd::convert::ConvertArgs),
     /// Compare an estimated trajectory with ground truth: ATE and RPE, as evo computes them.
     Eval(cmd::eval::EvalArgs),
     /// Render a synthetic RGB-D sequence with ground truth in TUM layout.
@@ -51,6 +53,10 @@ enum Command {
     Record(cmd::record::RecordArgs),
     /// Remove what dead runs left in /dev/shm and /tmp/iceoryx2 (never a live run's files).
     Clean(cmd::clean::CleanArgs),
+    /// The pipeline on a live ROS 2 camera (realtime): subscribes to colour, depth and
+    /// camera info, publishes /odom, /tf and the status, until SIGINT / SIGTERM; then
+    /// writes trajectory.txt, status.txt and profile.json.
+    Ros2(cmd::ros2::Ros2Args),
 }
 
 fn main() -> ExitCode {
@@ -61,12 +67,14 @@ fn main() -> ExitCode {
     }
     let result = match &cli.command {
         Command::Run(args) => cmd::run::run(args, &cli.log),
+        Command::Convert(args) => cmd::convert::run(args),
         Command::Eval(args) => cmd::eval::run(args),
         Command::Synth(args) => cmd::synth::run(args),
         Command::Bench(command) => bench::run(command),
         Command::Profile(args) => cmd::profile::run(args),
         Command::Record(args) => cmd::record::run(args),
         Command::Clean(args) => cmd::clean::run(args),
+        Command::Ros2(args) => cmd::ros2::run(args, &cli.log),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -8,7 +8,8 @@
 //! same frame merge: the first stamp of a stage wins, a later header only fills the
 //! stages still missing ([`Profile::record`], [`Profile::record_stage`]). Processing is
 //! started -> finished, queueing received -> started, end-to-end the source's started
-//! to the latest finished of any stage (a keyframe's includes its mapping). Quantiles
+//! to the tracker's finished: frame published to pose out (a keyframe's local mapping
+//! follows its pose and shows as the mapper's processing time). Quantiles
 //! are nearest-rank ([`Quantiles`]).
 //!
 //! ```

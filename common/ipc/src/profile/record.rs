@@ -66,17 +66,13 @@ impl StageTimes {
         }
     }
 
-    /// Source "started" to the latest "finished" of any stage, in ns, when both exist
-    /// (the definition of [`MsgHeader::end_to_end_ns`]).
+    /// Source "started" to tracker "finished" (frame published to pose out), in ns, when
+    /// both exist (the definition of [`MsgHeader::end_to_end_ns`]).
     pub fn end_to_end_ns(&self) -> Option<u64> {
         let start = self.source?.started_ns;
-        let last = Stage::ALL
-            .into_iter()
-            .filter_map(|s| self.get(s))
-            .map(|s| s.finished_ns)
-            .max()?;
-        (start != 0 && last != 0)
-            .then(|| last.checked_sub(start))
+        let pose = self.tracker?.finished_ns;
+        (start != 0 && pose != 0)
+            .then(|| pose.checked_sub(start))
             .flatten()
     }
 }
@@ -233,7 +229,8 @@ mod tests {
         assert_eq!(ids, [1, 2, 3]);
         assert_eq!(profile.frame(2).unwrap().end_to_end_ns, Some(890));
 
-        // The mapper's snapshot for keyframe 2 adds its stamp and stretches end-to-end.
+        // The mapper's snapshot for keyframe 2 adds its stamp; the pose was out before the
+        // mapping, so end-to-end stays frame published -> pose out.
         let mut m = MsgHeader::new(FrameId(2), 0.2);
         *m.stamp_mut(Stage::Mapper) = stamp(1_100, 1_200, 5_110);
         // A stray stamp of another stage on that header is not taken.
@@ -242,7 +239,7 @@ mod tests {
         let f2 = profile.frame(2).unwrap();
         assert_eq!(f2.stages.mapper, Some(stamp(1_100, 1_200, 5_110)));
         assert_eq!(f2.stages.points, None);
-        assert_eq!(f2.end_to_end_ns, Some(5_000));
+        assert_eq!(f2.end_to_end_ns, Some(890));
         assert_eq!(f2.processing_ms(Stage::Mapper), Some(0.00391));
 
         // A later header for frame 3 fills missing stamps, keeps present ones and the status.

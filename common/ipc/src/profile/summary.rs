@@ -3,7 +3,7 @@
 
 use std::fmt;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::record::{Profile, ns_to_ms};
 use crate::header::Stage;
@@ -14,7 +14,7 @@ use crate::header::Stage;
 /// 1-based rank `ceil(q * n)` (at least 1), so every reported value is a measured one
 /// (the median of an even count is the lower middle sample, not an average). All zero
 /// with `count == 0`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Quantiles {
     /// Number of samples.
     pub count: usize,
@@ -69,7 +69,7 @@ pub struct ProfileSummary {
     pub frames: usize,
     /// One entry per stage that stamped at least one frame, in pipeline order.
     pub stages: Vec<StageSummary>,
-    /// Source "started" to the latest "finished" of each frame.
+    /// Source "started" to tracker "finished" of each frame: frame published -> pose out.
     pub end_to_end: Quantiles,
 }
 

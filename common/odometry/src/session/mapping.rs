@@ -51,15 +51,29 @@ impl MappingSession {
     /// with this number was applied already (a request sent again after a restart).
     /// Returns the map to send back.
     pub fn insert(&mut self, request: KeyFrameRequest) -> MapUpdateRef<'_> {
+        self.insert_until(request, &|| false)
+    }
+
+    /// [`Self::insert`] with a local BA that stops early once `stop` answers true: the
+    /// realtime mapper stage yields to the next keyframe request or to its time budget.
+    /// Lockstep and inline runs never stop early, so that they stay reproducible.
+    pub fn insert_until(
+        &mut self,
+        request: KeyFrameRequest,
+        stop: &dyn Fn() -> bool,
+    ) -> MapUpdateRef<'_> {
         if request.seq > self.last_applied {
             if request.reset {
                 self.map.clear_keyframes();
             }
             request.sightings.add_to(&mut self.map);
             self.manhattan = request.manhattan;
-            let kf = self
-                .mapper
-                .add_keyframe(&mut self.map, &request.frame, &mut self.manhattan);
+            let kf = self.mapper.add_keyframe_until(
+                &mut self.map,
+                &request.frame,
+                &mut self.manhattan,
+                stop,
+            );
             // A canonical layout, as a mapper restarted from this map will have: local
             // mapping then goes on the same whether or not the mapper was restarted.
             self.map.canonicalise();

@@ -192,3 +192,43 @@ fn a_tracker_restored_without_a_map_starts_a_new_one() {
     restored.restore(tracking.checkpoint(), None);
     assert_eq!(restored.state(), TrackingState::NoMap { reset: false });
 }
+
+#[test]
+fn a_local_ba_stopped_at_once_still_makes_the_keyframe() {
+    let (mut tracking, mut full) = halves();
+    let (_, mut stopped) = halves();
+    let scene = Scene::new(200, 20);
+    let mut second = None;
+    for k in 0..60 {
+        let out = tracking
+            .process(scene.features(k, &truth(k)))
+            .expect("consistent features");
+        match out.keyframe {
+            Some(request) if request.seq == 1 => {
+                stopped.insert(request.clone());
+                assert!(tracking.apply(full.insert(request).to_owned()));
+            }
+            Some(request) => {
+                second = Some(request);
+                break;
+            }
+            None => {}
+        }
+    }
+    let request = second.expect("a second keyframe request within 60 frames");
+    let asked = std::cell::Cell::new(0);
+    let update = stopped
+        .insert_until(request.clone(), &|| {
+            asked.set(asked.get() + 1);
+            true
+        })
+        .to_owned();
+    let reference = full.insert(request).to_owned();
+    assert!(asked.get() >= 1, "the BA asked whether to stop");
+    assert_eq!(
+        (update.seq, update.keyframe),
+        (reference.seq, reference.keyframe)
+    );
+    assert_eq!(stopped.map().keyframe_count(), 2);
+    assert_eq!(stopped.map().point_count(), full.map().point_count());
+}

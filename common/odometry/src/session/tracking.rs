@@ -53,6 +53,9 @@ pub struct TrackOutput {
     /// Send this to the mapping half, then hand its answer to
     /// [`TrackingSession::apply`].
     pub keyframe: Option<KeyFrameRequest>,
+    /// Covariance of the pose from its optimisation (`gfs_optim::PoseResult::covariance`:
+    /// camera-frame translation then rotation); `None` for a predicted pose.
+    pub covariance: Option<nalgebra::Matrix6<f64>>,
 }
 
 /// A frame starts a map (it becomes its first keyframe); with `reset`, the mapping half
@@ -223,8 +226,13 @@ impl TrackingSession {
         let pose = FramePose::of(&frame);
         let reset = start.is_some_and(|s| s.reset);
         let keyframe = wants_keyframe.then(|| self.request_keyframe(&frame, reset));
+        let covariance = tracked.then(|| self.tracker.pose_covariance()).flatten();
         self.tracker.finish_frame(frame);
-        Ok(TrackOutput { pose, keyframe })
+        Ok(TrackOutput {
+            pose,
+            keyframe,
+            covariance,
+        })
     }
 
     /// One transition of the state machine ([`TrackingState`]): the frame as tracked,

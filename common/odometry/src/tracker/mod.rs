@@ -123,6 +123,11 @@ impl Tracker {
         self.reference = Some(keyframe);
     }
 
+    /// The covariance of the last pose optimisation (of the frame just tracked).
+    pub fn pose_covariance(&self) -> Option<nalgebra::Matrix6<f64>> {
+        self.solver.covariance()
+    }
+
     /// The pose predicted for the next frame, if any frame was seen.
     pub fn predict(&self) -> Option<Isometry3<f64>> {
         self.motion.predict()

@@ -33,6 +33,28 @@ pub struct BaResult {
     /// True when the second pass converged before its iteration limit; false means the
     /// estimate is the last one reached (still written to the problem).
     pub converged: bool,
+    /// True when the stop check ended the optimisation early: the estimate is the best
+    /// iterate reached (LM only accepts steps that lower the cost) and the inlier flags
+    /// were classified at it, as after a full run.
+    pub interrupted: bool,
+}
+
+/// How one LM pass ended.
+#[derive(Clone, Copy)]
+struct Pass {
+    iterations: usize,
+    converged: bool,
+    interrupted: bool,
+}
+
+impl Pass {
+    fn ended(iterations: usize, converged: bool) -> Self {
+        Self {
+            iterations,
+            converged,
+            interrupted: false,
+        }
+    }
 }
 
 /// Reusable local BA: owns the linear-algebra scratch between calls.
@@ -77,6 +99,24 @@ impl LocalBundleAdjuster {
         config: &BaConfig,
         result: &mut BaResult,
     ) -> Result<(), BaError> {
+        self.optimize_until(problem, config, result, &|| false)
+    }
+
+    /// [`Self::optimize`], asking `stop` before every LM iteration: once it answers
+    /// true, the iterations left (and the second pass) are skipped, the inliers are
+    /// classified at the best iterate and that iterate is written to `problem`
+    /// (ORB-SLAM2's local BA abort flag). The mapper stops this way when the next
+    /// keyframe arrives or its time budget runs out.
+    ///
+    /// # Errors
+    /// As [`Self::optimize`].
+    pub fn optimize_until(
+        &mut self,
+        problem: &mut BaProblem,
+        config: &BaConfig,
+        result: &mut BaResult,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<(), BaError> {
         problem.validate()?;
         self.solves = 0;
         self.values.copy_from_problem(problem);
@@ -87,13 +127,18 @@ impl LocalBundleAdjuster {
             let flags = &mut result.inliers;
             flags.reset(problem);
             terms.mark_invalid(&self.values, flags);
-            let (first, _) = self.run_lm(&terms, flags, config.first_pass_iterations)?;
+            let first = self.run_lm(&terms, flags, config.first_pass_iterations, stop)?;
             terms.classify(&self.values, flags);
-            let (second, converged) = self.run_lm(&terms, flags, config.second_pass_iterations)?;
+            let second = if first.interrupted {
+                Pass::ended(0, false)
+            } else {
+                self.run_lm(&terms, flags, config.second_pass_iterations, stop)?
+            };
             terms.classify(&self.values, flags);
-            result.iterations = first + second;
+            result.iterations = first.iterations + second.iterations;
+            result.interrupted = first.interrupted || second.interrupted;
             result.linear_solves = self.solves;
-            result.converged = converged;
+            result.converged = second.converged;
             result.initial_cost = terms.cost(&self.initial, flags, false).unwrap_or(0.0);
             result.final_cost = terms.cost(&self.values, flags, false).unwrap_or(0.0);
         }
@@ -107,15 +152,16 @@ impl LocalBundleAdjuster {
         Ok(())
     }
 
-    /// One LM pass over the active terms; returns the iterations and convergence.
+    /// One LM pass over the active terms, asking `stop` before each iteration.
     fn run_lm(
         &mut self,
         terms: &Terms<'_>,
         flags: &BaFlags,
         max_iterations: usize,
-    ) -> Result<(usize, bool), BaError> {
+        stop: &dyn Fn() -> bool,
+    ) -> Result<Pass, BaError> {
         if max_iterations == 0 {
-            return Ok((0, false));
+            return Ok(Pass::ended(0, false));
         }
         let problem = terms.problem;
         self.system.analyse(terms, flags)?;
@@ -123,9 +169,16 @@ impl LocalBundleAdjuster {
         terms.linearize(&self.values, flags, &mut self.linearization);
         // Nothing to reduce (no active term, or an exact fit).
         if self.linearization.cost <= 0.0 {
-            return Ok((0, true));
+            return Ok(Pass::ended(0, true));
         }
         for iteration in 1..=max_iterations {
+            if stop() {
+                return Ok(Pass {
+                    iterations: iteration - 1,
+                    converged: false,
+                    interrupted: true,
+                });
+            }
             let mut accepted = None;
             loop {
                 self.solves += 1;
@@ -150,15 +203,15 @@ impl LocalBundleAdjuster {
             }
             // No decrease at any damping: a minimum to working precision.
             let Some(cost) = accepted else {
-                return Ok((iteration, true));
+                return Ok(Pass::ended(iteration, true));
             };
             std::mem::swap(&mut self.values, &mut self.candidate);
             if self.linearization.cost - cost <= RELATIVE_COST_TOLERANCE * self.linearization.cost {
-                return Ok((iteration, true));
+                return Ok(Pass::ended(iteration, true));
             }
             terms.linearize(&self.values, flags, &mut self.linearization);
         }
-        Ok((max_iterations, false))
+        Ok(Pass::ended(max_iterations, false))
     }
 
     /// `candidate = values ⊕ step` (left perturbation for poses, additive for landmarks).

@@ -28,6 +28,17 @@ pub struct Joined {
     pub incomplete: bool,
 }
 
+/// The three feature messages of a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// From the points stage.
+    Points,
+    /// From the lines stage.
+    Lines,
+    /// From the planes stage.
+    Manhattan,
+}
+
 /// Frames waiting for their parts, by id.
 #[derive(Default)]
 pub struct FrameJoin {
@@ -79,6 +90,18 @@ impl FrameJoin {
         let p = self.entry(header);
         if !std::mem::replace(&mut p.manhattan, true) {
             p.features.manhattan = axes.first().and_then(WireManhattan::axes);
+        }
+    }
+
+    /// The part to wait for: one the oldest pending frame still lacks (the tracker needs
+    /// them all, so sleeping on the topic of any missing one wakes it no later than the
+    /// frame can be complete); points, the slowest stage, when nothing is pending.
+    pub fn waiting_for(&self) -> Part {
+        match self.pending.first_key_value() {
+            Some((_, p)) if !p.points => Part::Points,
+            Some((_, p)) if !p.manhattan => Part::Manhattan,
+            Some((_, p)) if !p.lines => Part::Lines,
+            _ => Part::Points,
         }
     }
 
@@ -161,6 +184,28 @@ mod tests {
         assert!(join.next_in_order(long).is_none());
         let j = join.next_in_order(Duration::ZERO).unwrap();
         assert!(j.incomplete && j.features.id == FrameId(2));
+    }
+
+    #[test]
+    fn the_tracker_waits_for_a_part_the_oldest_frame_lacks() {
+        let mut join = FrameJoin::default();
+        assert_eq!(join.waiting_for(), Part::Points);
+        join.add_manhattan(&header(1), &[]);
+        join.add_lines(&header(1), &[]);
+        join.add_lines(&header(2), &[]);
+        assert_eq!(join.waiting_for(), Part::Points);
+        join.add_points(&header(1), &[]);
+        join.add_points(&header(2), &[]);
+        join.next_in_order(Duration::from_secs(60)).unwrap();
+        assert_eq!(
+            join.waiting_for(),
+            Part::Manhattan,
+            "frame 2 lacks its axes"
+        );
+        join.add_manhattan(&header(3), &[]);
+        join.add_points(&header(3), &[]);
+        join.drop_before(3);
+        assert_eq!(join.waiting_for(), Part::Lines);
     }
 
     #[test]

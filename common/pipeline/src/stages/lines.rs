@@ -18,8 +18,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let use_lines = ctx.config().tracking.use_lines;
     let mut extractor = LineExtractor::new(ctx.config().lines.clone());
     let mut features = LineFeatures::default();
-    let frames = ctx.subscribe::<u8>(topics::FRAME)?;
     let publisher = ctx.publish::<WireLine>(topics::LINES, TYPICAL_LINES)?;
+    // Last: a frame subscriber tells the realtime source that this stage is ready.
+    let frames = ctx.subscribe::<u8>(topics::FRAME)?;
     while !ctx.stopping() {
         let Some(sample) = ctx.next_frame(&frames, &publisher, POLL * 25)? else {
             continue;

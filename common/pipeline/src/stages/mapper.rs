@@ -4,8 +4,9 @@
 
 use super::context::{POLL, StageContext, StageError};
 use crate::state::{StateDir, StateError};
-use gfs_ipc::{MAX_VARIABLE_MESSAGE_BYTES, Service, Stage, encode_message, topics};
+use gfs_ipc::{MAX_VARIABLE_MESSAGE_BYTES, Mode, Service, Stage, encode_message, topics};
 use gfs_odometry::session::{KeyFrameRequest, MapUpdate, MappingSession};
+use std::time::{Duration, Instant};
 
 /// The checkpoints: the last two maps sent (bincode [`MapUpdate`]s), by the parity of
 /// the request they answer, so that a restarted tracker finds the one it tracked
@@ -52,6 +53,10 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let requests = ctx.subscribe::<u8>(topics::KEYFRAME)?;
     let publisher = ctx.publish::<u8>(topics::LOCAL_MAP, TYPICAL_MAP_BYTES)?;
     let mut bytes = Vec::new();
+    let budget = (ctx.mode() == Mode::Realtime)
+        .then(|| Duration::from_millis(ctx.config().pipeline.realtime_ba_budget_ms));
+    // Realtime: yield to the next keyframe (ORB-SLAM2's abort flag) or to the budget.
+    let next_keyframe_waits = || requests.port().has_samples().unwrap_or(false);
     while !ctx.stopping() {
         let Some((mut header, request)) =
             requests.receive_decoded::<KeyFrameRequest>(MAX_VARIABLE_MESSAGE_BYTES)?
@@ -66,7 +71,13 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         header.mark_received(Stage::Mapper);
         header.mark_started(Stage::Mapper);
-        let update = session.insert(request);
+        let started = Instant::now();
+        let update = match budget {
+            Some(budget) => session.insert_until(request, &|| {
+                started.elapsed() >= budget || next_keyframe_waits()
+            }),
+            None => session.insert(request),
+        };
         if let Err(e) = encode_message(&update, &mut bytes) {
             tracing::error!(
                 frame = header.frame_id,

@@ -3,12 +3,14 @@
 //! (`ipc::Service`, the services in `services/`) or as a thread (`local::Service`,
 //! `gfsvo run --mode threads`).
 
+mod bag_source;
 mod context;
 mod join;
 mod lines;
 mod mapper;
 mod planes;
 mod points;
+pub mod ros2_frames;
 mod source;
 mod tracker;
 

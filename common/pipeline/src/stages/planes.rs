@@ -47,10 +47,11 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             stage: "planes",
             message: e.to_string(),
         })?;
-    let frames = ctx.subscribe::<u8>(topics::FRAME)?;
     let lines = ctx.subscribe::<WireLine>(topics::LINES)?;
     let poses = ctx.subscribe::<WirePose>(topics::POSE)?;
     let publisher = ctx.publish::<WireManhattan>(topics::MANHATTAN, 1)?;
+    // Last: a frame subscriber tells the realtime source that this stage is ready.
+    let frames = ctx.subscribe::<u8>(topics::FRAME)?;
     let state = ctx.state();
     let mut scratch = Vec::new();
     // The last frame done and the axes history: a restarted stage labels the axes of

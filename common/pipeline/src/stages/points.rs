@@ -16,8 +16,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         message: e.to_string(),
     })?;
     let mut features = OrbFeatures::default();
-    let frames = ctx.subscribe::<u8>(topics::FRAME)?;
     let publisher = ctx.publish::<WireKeyPoint>(topics::POINTS, config.features)?;
+    // Last: a frame subscriber tells the realtime source that this stage is ready.
+    let frames = ctx.subscribe::<u8>(topics::FRAME)?;
     while !ctx.stopping() {
         let Some(sample) = ctx.next_frame(&frames, &publisher, POLL * 25)? else {
             continue;

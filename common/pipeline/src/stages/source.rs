@@ -1,6 +1,7 @@
 //! `source`: decodes the dataset's frames (undistorted gray and depth in metres) and
 //! publishes each once for every other stage to read in place. Lockstep: frame k+1 only
-//! after the pose of frame k. Realtime: at the capture rate (or `max_rate`).
+//! after the pose of frame k. Realtime: at the capture rate (or `max_rate`). A ROS 2 bag
+//! in place of the folder is played by [`super::bag_source`].
 
 use super::context::{POLL, StageContext, StageError};
 use crate::wire::WirePose;
@@ -22,6 +23,9 @@ const CHECKPOINT: &str = "source.bin";
 /// # Errors
 /// [`StageError`] when the dataset cannot be opened or a topic fails.
 pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
+    if gfs_ros2::bag::is_bag(&ctx.settings.dataset) {
+        return super::bag_source::run(ctx);
+    }
     let camera = ctx.config().camera()?;
     let dataset = &ctx.settings.dataset;
     let sequence = Sequence::open(dataset, &camera, &ctx.config().depth)
@@ -48,6 +52,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         Image::<f32>::new(width, height),
     );
     let mut reader = sequence.frames_from(start, Some(total), DEFAULT_READ_AHEAD);
+    if ctx.mode() == Mode::Realtime && start == 0 {
+        await_stages(ctx, &publisher, &poses)?;
+    }
     let clock = Instant::now();
     let mut playback = Playback::default();
     for index in start..total {
@@ -122,6 +129,39 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     Ok(())
 }
 
+/// Stages that read every frame: points, lines, planes.
+const FRAME_READERS: usize = 3;
+
+/// Realtime: waits until the stages that read frames are ready (each subscribes to the
+/// frame topic after its other ports) and the tracker is up (it opens its pose topic
+/// after its feature topics), so that the first frames are not played to stages still
+/// starting: a realtime topic keeps only the newest frame for a late subscriber. Gives
+/// up after the lockstep feature deadline, with a warning.
+fn await_stages<S: Service>(
+    ctx: &StageContext<S>,
+    frames: &TopicPublisher<S, u8>,
+    poses: &TopicSubscriber<S, WirePose>,
+) -> Result<(), StageError> {
+    let deadline =
+        Instant::now() + Duration::from_millis(ctx.config().pipeline.lockstep_feature_deadline_ms);
+    while frames.subscriber_count() < FRAME_READERS || poses.publisher_count() == 0 {
+        if ctx.stopping() {
+            return Ok(());
+        }
+        if Instant::now() >= deadline {
+            tracing::warn!(
+                readers = frames.subscriber_count(),
+                tracker = poses.publisher_count(),
+                "source: not every stage is up; playing anyway"
+            );
+            return Ok(());
+        }
+        frames.update_connections()?;
+        std::thread::sleep(POLL);
+    }
+    Ok(())
+}
+
 /// Longest pause between two frames when playing at the capture times: a jump in the
 /// timestamps (a gap in the recording, a bad clock) costs at most this, not the jump.
 const MAX_GAP_S: f64 = 1.0;
@@ -157,7 +197,7 @@ impl Playback {
 }
 
 /// Sleeps until `due` seconds after `clock` (or until told to stop).
-fn pace<S: Service>(ctx: &StageContext<S>, clock: Instant, due: f64) {
+pub(super) fn pace<S: Service>(ctx: &StageContext<S>, clock: Instant, due: f64) {
     let due = Duration::from_secs_f64(due.max(0.0));
     while !ctx.stopping() {
         let now = clock.elapsed();
@@ -171,7 +211,7 @@ fn pace<S: Service>(ctx: &StageContext<S>, clock: Instant, due: f64) {
 /// Lockstep: waits for the pose of frame `id` (or a later one), publishing the frame
 /// again when none comes for a while (front-end stages restarted without it). False
 /// when told to stop.
-fn await_pose<S: Service>(
+pub(super) fn await_pose<S: Service>(
     ctx: &StageContext<S>,
     publisher: &TopicPublisher<S, u8>,
     poses: &TopicSubscriber<S, WirePose>,

@@ -4,7 +4,7 @@
 //! in-process odometry does, so both give the same trajectory.
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
-use super::join::{FrameJoin, Joined};
+use super::join::{FrameJoin, Joined, Part};
 use super::mapper::saved_maps;
 use crate::state::StateDir;
 use crate::wire::{WireKeyPoint, WireLine, WireManhattan, WirePose};
@@ -80,23 +80,27 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             ports.poses.update_connections()?;
             ports.keyframes.update_connections()?;
             resend_if_stale(ctx, &ports.keyframes, &mut outstanding)?;
-            ports.manhattan.wait(POLL)?;
+            match join.waiting_for() {
+                Part::Points => ports.points.wait(POLL)?,
+                Part::Lines => ports.lines.wait(POLL)?,
+                Part::Manhattan => ports.manhattan.wait(POLL)?,
+            };
             continue;
         };
         mark_ready(&mut header, Stage::Tracker, 0);
         header.mark_started(Stage::Tracker);
         let (id, timestamp) = (features.id, features.timestamp);
-        let (mut pose, request) = if features.is_blank() {
-            (session.skip(id, timestamp), None)
+        let (mut pose, request, covariance) = if features.is_blank() {
+            (session.skip(id, timestamp), None, None)
         } else if let Err(e) = features.check() {
             tracing::warn!("tracker: inconsistent features: {e}; the pose is predicted");
-            (session.skip(id, timestamp), None)
+            (session.skip(id, timestamp), None, None)
         } else {
             match session.process(features) {
-                Ok(out) => (out.pose, out.keyframe),
+                Ok(out) => (out.pose, out.keyframe, out.covariance),
                 Err(e) => {
                     tracing::warn!("tracker: {e}; the pose is predicted");
-                    (session.skip(id, timestamp), None)
+                    (session.skip(id, timestamp), None, None)
                 }
             }
         };
@@ -126,7 +130,8 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         header.mark_finished(Stage::Tracker);
         let predicted = session.predicted_quaternion();
-        let wire = WirePose::new(&pose, predicted.as_ref(), keyframe);
+        let wire =
+            WirePose::new(&pose, predicted.as_ref(), keyframe).with_covariance(covariance.as_ref());
         ports.poses.publish_slice(&header, &[wire])?;
         ctx.made(id.0);
         state.write(CHECKPOINT, &session.checkpoint(), &mut scratch)?;

@@ -1,6 +1,8 @@
 //! `gfsvo bench STAGE DATASET`: per-step timings of one front-end stage over real frames,
-//! single-threaded, printed as medians / p90 (and as one JSON object with `--json`).
+//! single-threaded, printed as medians / p90 (and as one JSON object with `--json`);
+//! `bench transport` and `bench latency` time the pipeline's plumbing and whole.
 
+mod latency;
 mod lines;
 mod planes;
 mod points;
@@ -23,6 +25,9 @@ pub enum BenchCommand {
     /// Transport latency of a 640x480 RGB-D frame between two processes over iceoryx2
     /// (median / p90 / p99 / max in µs); needs no dataset.
     Transport(transport::TransportArgs),
+    /// The pipeline in realtime with N busy competitor processes: end-to-end latency
+    /// (frame published -> pose out) median / p90 / p99 / max, frames dropped, ATE.
+    Latency(latency::LatencyArgs),
 }
 
 /// Arguments shared by every benchmark.
@@ -55,5 +60,6 @@ pub fn run(command: &BenchCommand) -> CliResult {
         BenchCommand::Lines(args) => lines::run(args),
         BenchCommand::Planes(args) => planes::run(args),
         BenchCommand::Transport(args) => transport::run(args),
+        BenchCommand::Latency(args) => latency::run(args),
     }
 }

@@ -1,8 +1,11 @@
 //! Subcommands other than the benchmarks.
 
 pub mod clean;
+pub mod convert;
 pub mod eval;
 pub mod profile;
 pub mod record;
+pub mod ros2;
+pub mod ros2_io;
 pub mod run;
 pub mod synth;

@@ -3,6 +3,7 @@
 
 use super::restarts::RestartPolicy;
 use gfs_ipc::{IpcRun, Stage, ipc};
+use gfs_pipeline::scheduling::SchedulingConfig;
 use std::ffi::OsString;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
@@ -43,13 +44,16 @@ pub enum ChildError {
 /// The running stage processes.
 pub struct StageProcesses {
     dir: PathBuf,
+    source_executable: Option<String>,
     args: Vec<OsString>,
     children: Vec<(Stage, Child)>,
     policy: RestartPolicy,
+    scheduling: SchedulingConfig,
 }
 
 impl StageProcesses {
-    /// Starts every stage with `args` (the same for all).
+    /// Starts every stage with `args` (the same for all), scheduled as `scheduling`
+    /// says; the source role is played by `source_executable` when given (`gfsvo-ros2`).
     ///
     /// # Errors
     /// [`ChildError`] when an executable is missing or cannot start.
@@ -57,18 +61,22 @@ impl StageProcesses {
         dir: &Path,
         args: Vec<OsString>,
         policy: RestartPolicy,
+        scheduling: SchedulingConfig,
+        source_executable: Option<String>,
     ) -> Result<Self, ChildError> {
         for stage in Stage::ALL {
-            let path = executable(dir, stage);
+            let path = executable(dir, stage, source_executable.as_deref());
             if !path.is_file() {
                 return Err(ChildError::Missing(path));
             }
         }
         let mut pool = Self {
             dir: dir.to_path_buf(),
+            source_executable,
             args,
             children: Vec::new(),
             policy,
+            scheduling,
         };
         for stage in Stage::ALL {
             let child = pool.spawn(stage)?;
@@ -155,24 +163,33 @@ impl StageProcesses {
     }
 
     fn spawn(&self, stage: Stage) -> Result<Child, ChildError> {
-        let path = executable(&self.dir, stage);
+        let path = executable(&self.dir, stage, self.source_executable.as_deref());
         let mut command = Command::new(&path);
         command.args(&self.args).stdin(Stdio::null());
-        // SAFETY: the closure only calls async-signal-safe functions (prctl, getppid,
-        // raise) between fork and exec.
+        let scheduling = self.scheduling.for_stage(stage);
+        let prepared = scheduling.prepare();
+        // SAFETY: the closure only makes system calls (prctl, getppid, raise and the
+        // scheduling calls), which are async-signal-safe, between fork and exec.
         unsafe {
-            command.pre_exec(|| {
+            command.pre_exec(move || {
                 // Die with the supervisor, even if it is SIGKILLed.
                 libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL);
                 if libc::getppid() == 1 {
                     libc::raise(libc::SIGKILL);
                 }
+                prepared.apply_to_this_process();
                 Ok(())
             });
         }
-        command
+        let child = command
             .spawn()
-            .map_err(|source| ChildError::Spawn { path, source })
+            .map_err(|source| ChildError::Spawn { path, source })?;
+        if let Ok(pid) = i32::try_from(child.id()) {
+            for refused in scheduling.differences(pid) {
+                tracing::warn!(stage = stage.name(), "[pipeline.scheduling] {refused}");
+            }
+        }
+        Ok(child)
     }
 }
 
@@ -187,6 +204,9 @@ impl Drop for StageProcesses {
     }
 }
 
-fn executable(dir: &Path, stage: Stage) -> PathBuf {
-    dir.join(format!("gfsvo-{}", stage.name()))
+fn executable(dir: &Path, stage: Stage, source: Option<&str>) -> PathBuf {
+    match (stage, source) {
+        (Stage::Source, Some(name)) => dir.join(name),
+        _ => dir.join(format!("gfsvo-{}", stage.name())),
+    }
 }

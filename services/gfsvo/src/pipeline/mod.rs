@@ -9,7 +9,7 @@ pub mod signals;
 mod threads;
 mod watchdog;
 
-pub use recorder::{Recorder, complete_trajectory};
+pub use recorder::{Covariances, Recorder, complete_trajectory};
 
 use crate::CliResult;
 use children::StageProcesses;
@@ -53,12 +53,20 @@ pub struct PipelineOptions {
     pub out: PathBuf,
     /// No progress bar.
     pub quiet: bool,
+    /// The executable that plays the source role instead of `gfsvo-source` (`gfsvo ros2`
+    /// runs `gfsvo-ros2`).
+    pub source_executable: Option<String>,
+    /// Frames come until SIGINT / SIGTERM (a live camera): no last frame, no stall
+    /// limit, and the interruption is the normal end.
+    pub open_ended: bool,
 }
 
 /// What a pipeline run produced.
 pub struct PipelineOutcome {
     /// The poses received, by frame id.
     pub received: BTreeMap<u64, FramePose>,
+    /// Their covariances (tracked frames), by frame id.
+    pub covariances: Covariances,
     /// Stage stamps of every frame.
     pub profile: Profile,
     /// Keyframes made.
@@ -115,12 +123,19 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
             ProgressBoard::create(dir)
                 .map(|board| {
                     let timeout = Duration::from_millis(timeout);
-                    Watchdog::new(board, timeout, options.total, options.settings.mode)
+                    let total = (!options.open_ended).then_some(options.total);
+                    Watchdog::new(board, timeout, total, options.settings.mode)
                 })
                 .map_err(|e| tracing::warn!("no hung-stage detection: {e}"))
                 .ok()
         });
-        let mut pool = StageProcesses::start(&dir, stage_args(options), policy)?;
+        let mut pool = StageProcesses::start(
+            &dir,
+            stage_args(options),
+            policy,
+            options.settings.config.pipeline.scheduling.clone(),
+            options.source_executable.clone(),
+        )?;
         write_pids(&options.out, &pool.pids());
         let result = supervise(&run, recorder, options, |run| {
             for (stage, idle) in watchdog.as_mut().map(Watchdog::overdue).unwrap_or_default() {
@@ -148,7 +163,7 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
     }
 }
 
-type Supervised = CliResult<(Profile, BTreeMap<u64, FramePose>, usize, bool)>;
+type Supervised = CliResult<(Profile, BTreeMap<u64, FramePose>, Covariances, usize, bool)>;
 
 /// Records poses until the last frame has one (or a signal came), restarting dead
 /// stages on the way.
@@ -162,7 +177,7 @@ fn supervise<S: Service>(
     let mut progress = Instant::now();
     let bar = crate::cmd::run::progress_bar(options.total as u64, options.quiet);
     let mut interrupted = false;
-    while options.total > 0 && !recorder.has(last) {
+    while options.total > 0 && (options.open_ended || !recorder.has(last)) {
         if recorder.drain()? > 0 {
             progress = Instant::now();
             bar.set_position(recorder.len() as u64);
@@ -173,7 +188,7 @@ fn supervise<S: Service>(
             break;
         }
         restart_dead(run)?;
-        if progress.elapsed() > STALL {
+        if !options.open_ended && progress.elapsed() > STALL {
             return Err(format!(
                 "the pipeline stalled: no pose for {} s after {} frames",
                 STALL.as_secs(),
@@ -186,8 +201,8 @@ fn supervise<S: Service>(
     recorder.drain()?;
     bar.finish_and_clear();
     let keyframes = recorder.keyframes();
-    let (profile, received) = recorder.into_profile();
-    Ok((profile, received, keyframes, interrupted))
+    let (profile, received, covariances) = recorder.into_profile();
+    Ok((profile, received, covariances, keyframes, interrupted))
 }
 
 fn finish(
@@ -198,9 +213,10 @@ fn finish(
     if !leftovers.is_empty() {
         tracing::warn!("files of the run left behind: {leftovers:?}");
     }
-    let (profile, received, keyframes, interrupted) = result?;
+    let (profile, received, covariances, keyframes, interrupted) = result?;
     Ok(PipelineOutcome {
         received,
+        covariances,
         profile,
         keyframes,
         restarts: totals.into_iter().collect(),

@@ -11,11 +11,15 @@ use nalgebra::Isometry3;
 use std::collections::BTreeMap;
 use std::time::Duration;
 
+/// The covariance of each tracked pose (from its optimisation), by frame id.
+pub type Covariances = BTreeMap<u64, nalgebra::Matrix6<f64>>;
+
 /// Poses and profile of a run as they arrive.
 pub struct Recorder<S: Service> {
     poses: TopicSubscriber<S, WirePose>,
     maps: TopicSubscriber<S, u8>,
     received: BTreeMap<u64, FramePose>,
+    covariances: Covariances,
     keyframes: usize,
     profile: Profile,
 }
@@ -35,6 +39,7 @@ impl<S: Service> Recorder<S> {
                 &topics::LOCAL_MAP.qos(mode),
             )?,
             received: BTreeMap::new(),
+            covariances: BTreeMap::new(),
             keyframes: 0,
             profile: Profile::new(label),
         })
@@ -62,6 +67,9 @@ impl<S: Service> Recorder<S> {
             if let std::collections::btree_map::Entry::Vacant(slot) = self.received.entry(pose.id.0)
             {
                 slot.insert(pose);
+                if let Some(c) = wire.covariance() {
+                    self.covariances.insert(pose.id.0, c);
+                }
                 self.keyframes += wire.keyframe as usize;
                 self.profile.record(&header, pose.status.as_str());
                 new += 1;
@@ -107,9 +115,9 @@ impl<S: Service> Recorder<S> {
         &self.profile
     }
 
-    /// The profile and the poses received.
-    pub fn into_profile(self) -> (Profile, BTreeMap<u64, FramePose>) {
-        (self.profile, self.received)
+    /// The profile, the poses received and their covariances.
+    pub fn into_profile(self) -> (Profile, BTreeMap<u64, FramePose>, Covariances) {
+        (self.profile, self.received, self.covariances)
     }
 }
 

@@ -8,11 +8,12 @@ use gfs_ipc::{Mode, Stage};
 use gfs_pipeline::progress::{ProgressBoard, StageProgress};
 use std::time::{Duration, Instant};
 
-/// Watches the board of a run of `total` frames.
+/// Watches the board of a run of `total` frames (`None`: a live source, a camera, whose
+/// pauses are not hangs).
 pub struct Watchdog {
     board: ProgressBoard,
     timeout: Duration,
-    total: u64,
+    total: Option<u64>,
     mode: Mode,
     /// Per stage: its `made` counter when last seen, and since when it stands still
     /// with input waiting.
@@ -21,11 +22,11 @@ pub struct Watchdog {
 
 impl Watchdog {
     /// A watchdog on `board`.
-    pub fn new(board: ProgressBoard, timeout: Duration, total: usize, mode: Mode) -> Self {
+    pub fn new(board: ProgressBoard, timeout: Duration, total: Option<usize>, mode: Mode) -> Self {
         Self {
             board,
             timeout,
-            total: total as u64,
+            total: total.map(|t| t as u64),
             mode,
             still: [(0, None); Stage::COUNT],
         }
@@ -60,7 +61,11 @@ impl Watchdog {
 }
 
 /// Which stages have input waiting, from what every stage has published (frame + 1).
-fn waiting(p: &[StageProgress; Stage::COUNT], total: u64, mode: Mode) -> [bool; Stage::COUNT] {
+fn waiting(
+    p: &[StageProgress; Stage::COUNT],
+    total: Option<u64>,
+    mode: Mode,
+) -> [bool; Stage::COUNT] {
     let made = |s: Stage| p[s.index()].made;
     let source = made(Stage::Source);
     let features = made(Stage::Points)
@@ -70,7 +75,9 @@ fn waiting(p: &[StageProgress; Stage::COUNT], total: u64, mode: Mode) -> [bool; 
     let mapper_waits = p[Stage::Tracker.index()].requested > made(Stage::Mapper);
     Stage::ALL.map(|stage| match stage {
         // Lockstep: the next frame is due once the last one has its pose.
-        Stage::Source => source < total && (mode == Mode::Realtime || tracker >= source),
+        Stage::Source => {
+            total.is_some_and(|t| source < t) && (mode == Mode::Realtime || tracker >= source)
+        }
         Stage::Points | Stage::Lines | Stage::Planes => source > made(stage),
         Stage::Tracker => features > tracker && !mapper_waits,
         Stage::Mapper => mapper_waits,
@@ -94,21 +101,23 @@ mod tests {
     fn only_a_stage_with_input_waiting_is_waiting() {
         // source 5 frames out, points done, lines at 3, planes done, tracker at 4.
         let p = progress([5, 5, 3, 5, 4, 0], 0);
-        let w = waiting(&p, 10, Mode::Lockstep);
+        let w = waiting(&p, Some(10), Mode::Lockstep);
         assert_eq!(w, [false, false, true, false, true, false]);
         // Everything posed: the source is due (lockstep), nobody else.
         let p = progress([5, 5, 5, 5, 5, 2], 2);
         assert_eq!(
-            waiting(&p, 10, Mode::Lockstep),
+            waiting(&p, Some(10), Mode::Lockstep),
             [true, false, false, false, false, false]
         );
         // The last frame posed: nothing is due.
         let p = progress([10, 10, 10, 10, 10, 2], 2);
-        assert_eq!(waiting(&p, 10, Mode::Lockstep), [false; Stage::COUNT]);
+        assert_eq!(waiting(&p, Some(10), Mode::Lockstep), [false; Stage::COUNT]);
+        // A live camera that pauses is not a hung source.
+        assert!(!waiting(&p, None, Mode::Realtime)[Stage::Source.index()]);
         // A keyframe waits for the mapper: the tracker is not blamed.
         let p = progress([6, 6, 6, 6, 5, 2], 6);
         assert_eq!(
-            waiting(&p, 10, Mode::Lockstep),
+            waiting(&p, Some(10), Mode::Lockstep),
             [false, false, false, false, false, true]
         );
     }

@@ -67,6 +67,9 @@ pub struct RunArgs {
     /// Print the summary as one JSON object (ATE, frames per status, timings).
     #[arg(long)]
     pub json: bool,
+    /// Also write /odom, /tf and the status as a ROS 2 bag file (MCAP, CDR).
+    #[arg(long)]
+    pub mcap: Option<PathBuf>,
 }
 
 /// Per-stage timings of a run, as printed.
@@ -88,22 +91,32 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let mut config = Config::load(args.config.as_deref(), &dataset)?;
     config.tracking.use_lines &= !args.no_lines;
     config.tracking.use_manhattan &= !args.no_manhattan;
-    let camera = config.camera()?;
-    let sequence = Sequence::open(&dataset, &camera, &config.depth)?;
-    let ground_truth = match sequence.ground_truth_path() {
+    if args.mcap.is_some() && args.mode == RunMode::Inline {
+        return Err(
+            "--mcap records the pose covariances of the pipeline modes, not of inline".into(),
+        );
+    }
+    let _out_lock = checks::lock_out(&args.out)?;
+    let source = RunSource::open(&dataset, args, config)?;
+    let (config, sequence) = (source.config, source.sequence);
+    let ground_truth = match sequence.as_ref().and_then(Sequence::ground_truth_path) {
         Some(gt) => Some(Trajectory::read_tum(&gt)?),
         None => None,
     };
-    let _out_lock = checks::lock_out(&args.out)?;
     let total = args
         .frames
-        .map_or(sequence.len(), |n| n.min(sequence.len()));
-    let timestamps = &sequence.timestamps()[..total];
+        .map_or(source.timestamps.len(), |n| n.min(source.timestamps.len()));
+    let timestamps = &source.timestamps[..total];
     let clock = std::time::Instant::now();
 
-    let (poses, processed, timings, keyframes, restarts) = if args.mode == RunMode::Inline {
+    let (poses, processed, timings, keyframes, restarts, covariances) = if args.mode
+        == RunMode::Inline
+    {
+        let sequence = sequence
+            .as_ref()
+            .ok_or("--mode inline plays dataset folders only")?;
         let progress = progress_bar(total as u64, args.json);
-        let outcome = inline::run(&config, config.odometry(), &sequence, total, &progress)?;
+        let outcome = inline::run(&config, config.odometry(), sequence, total, &progress)?;
         progress.finish_and_clear();
         if outcome.interrupted {
             write_outputs(&args.out, &outcome.poses)?;
@@ -111,7 +124,15 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
         let timings = Timings::Inline(outcome.timings);
         let processed = outcome.poses.len();
-        (outcome.poses, processed, timings, outcome.keyframes, None)
+        let covariances = crate::pipeline::Covariances::new();
+        (
+            outcome.poses,
+            processed,
+            timings,
+            outcome.keyframes,
+            None,
+            covariances,
+        )
     } else {
         let state_dir = args.out.join("state");
         if state_dir.exists() {
@@ -132,9 +153,9 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
                 dataset: dataset.clone(),
                 frames: args.frames,
                 max_rate: args.max_rate,
-                config,
+                config: config.clone(),
             },
-            config_path: args.config.clone(),
+            config_path: source.config_path.clone(),
             no_lines: args.no_lines,
             no_manhattan: args.no_manhattan,
             run_id,
@@ -143,6 +164,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             total,
             out: args.out.clone(),
             quiet: args.json,
+            source_executable: None,
+            open_ended: false,
         };
         let outcome = pipeline::run(&options)?;
         outcome.profile.write_json(&args.out.join("profile.json"))?;
@@ -170,11 +193,15 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             timings,
             outcome.keyframes,
             Some(outcome.restarts),
+            outcome.covariances,
         )
     };
 
     let wall_s = clock.elapsed().as_secs_f64();
     write_outputs(&args.out, &poses)?;
+    if let Some(path) = &args.mcap {
+        super::ros2_io::record_mcap(path, &config, &poses, &covariances)?;
+    }
     let estimated = checks::tracked_trajectory(&poses, &args.out)?;
     let evaluation = match &ground_truth {
         Some(gt) => Some(evaluate(gt, &estimated, EVO_MAX_DIFF_S)?),
@@ -231,6 +258,35 @@ fn interrupted(done: usize, total: usize, out: &Path) -> crate::CliError {
         out.display()
     )
     .into()
+}
+
+/// What a run plays: a dataset folder or a ROS 2 bag, with the frame stamps.
+struct RunSource {
+    config: Config,
+    config_path: Option<PathBuf>,
+    timestamps: Vec<f64>,
+    sequence: Option<Sequence>,
+}
+
+impl RunSource {
+    fn open(dataset: &Path, args: &RunArgs, config: Config) -> CliResult<Self> {
+        if gfs_ros2::bag::is_bag(dataset) {
+            let bag = super::ros2_io::open_bag(dataset, args.config.as_deref(), config, &args.out)?;
+            return Ok(Self {
+                config: bag.config,
+                config_path: bag.config_path,
+                timestamps: bag.timestamps,
+                sequence: None,
+            });
+        }
+        let sequence = Sequence::open(dataset, &config.camera()?, &config.depth)?;
+        Ok(Self {
+            config,
+            config_path: args.config.clone(),
+            timestamps: sequence.timestamps().to_vec(),
+            sequence: Some(sequence),
+        })
+    }
 }
 
 /// Writes `trajectory.txt` (TUM) and `status.txt`; returns the trajectory.

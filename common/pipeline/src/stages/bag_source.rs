@@ -1,0 +1,101 @@
+//! The source playing a ROS 2 bag (MCAP) instead of a dataset folder: colour and depth
+//! paired by stamp (`[ros2] slop_s`), converted like live ROS 2 images, paced like the
+//! folder source (lockstep: after the previous pose; realtime: at the stamps). Frame k
+//! is the k-th pair, as `gfs_ros2::bag::scan` counts them for the supervisor.
+
+use super::context::{POLL, StageContext, StageError};
+use super::ros2_frames::{publish_blank, publish_pair};
+use super::source::{await_pose, pace};
+use crate::wire::WirePose;
+use gfs_ipc::{FrameLayout, Mode, Service, topics};
+use gfs_ros2::bag::{BagReader, BagTopics};
+use gfs_ros2::image::{FrameConverter, Received};
+use std::time::Instant;
+
+/// The checkpoint: the index of the next frame to publish (as the folder source).
+const CHECKPOINT: &str = "source.bin";
+
+/// Plays the bag until its end, then idles until told to stop.
+///
+/// # Errors
+/// [`StageError`] when the bag cannot be read or a topic fails.
+pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
+    let config = ctx.config();
+    let camera = config.camera()?;
+    let ros2 = &config.ros2;
+    let topics = BagTopics {
+        colour: ros2.colour_topic.clone(),
+        depth: ros2.depth_topic.clone(),
+        camera_info: ros2.camera_info_topic.clone(),
+    };
+    let mut bag = BagReader::open(&ctx.settings.dataset, &topics, ros2.slop_s)
+        .map_err(|e| StageError::Dataset(e.to_string()))?;
+    let (width, height) = (camera.pinhole.width, camera.pinhole.height);
+    let layout = FrameLayout::new(width, height, false).map_err(|e| StageError::Setup {
+        stage: "source",
+        message: e.to_string(),
+    })?;
+    let mut converter = FrameConverter::new(&camera, &config.depth);
+    let publisher = ctx.publish::<u8>(topics::FRAME, layout.byte_len())?;
+    let poses = ctx.subscribe::<WirePose>(topics::POSE)?;
+    let state = ctx.state();
+    let mut scratch = Vec::new();
+    let start = state.read::<u64>(CHECKPOINT)?.unwrap_or(0);
+    let limit = ctx.settings.frames.map_or(u64::MAX, |n| n as u64);
+    let clock = Instant::now();
+    let mut first = None;
+    let mut index = 0u64;
+    while index < limit {
+        if ctx.stopping() {
+            return Ok(());
+        }
+        let frame = match bag.next_frame() {
+            Ok(Some(frame)) => frame,
+            Ok(None) => break,
+            Err(e) => return Err(StageError::Dataset(e.to_string())),
+        };
+        if index < start {
+            index += 1;
+            continue;
+        }
+        let stamp = frame.colour.header.stamp.secs();
+        if ctx.mode() == Mode::Realtime {
+            let first = *first.get_or_insert((index, stamp));
+            let due = match ctx.settings.max_rate {
+                Some(rate) if rate > 0.0 => (index - first.0) as f64 / rate,
+                _ => stamp - first.1,
+            };
+            pace(ctx, clock, due);
+        }
+        let colour = Received {
+            image: &frame.colour,
+            topic: &topics.colour,
+        };
+        let depth = Received {
+            image: &frame.depth,
+            topic: &topics.depth,
+        };
+        let converter = std::cell::RefCell::new(&mut converter);
+        let publish = || -> Result<(), StageError> {
+            let mut converter = converter.borrow_mut();
+            match publish_pair(&publisher, &layout, &mut converter, index, colour, depth)? {
+                Ok(()) => Ok(()),
+                Err(e) => {
+                    tracing::warn!("source: frame {index}: {e}; publishing a blank frame");
+                    publish_blank(&publisher, &layout, index, stamp)
+                }
+            }
+        };
+        publish()?;
+        if ctx.mode() == Mode::Lockstep && !await_pose(ctx, &publisher, &poses, index, &publish)? {
+            return Ok(());
+        }
+        index += 1;
+        state.write(CHECKPOINT, &index, &mut scratch)?;
+    }
+    while !ctx.stopping() {
+        publisher.update_connections()?;
+        std::thread::sleep(POLL * 25);
+    }
+    Ok(())
+}

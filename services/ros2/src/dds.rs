@@ -1,0 +1,173 @@
+//! The DDS side: a participant on the ROS domain as ROS 2 sets it up
+//! (`ROS_DOMAIN_ID`; `ROS_LOCALHOST_ONLY=1` or `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`
+//! keep discovery and data on 127.0.0.1), the camera subscriptions with sensor-data QoS
+//! (best effort, so reliable and best-effort publishers both match) and the output
+//! publishers (reliable).
+
+use gfs_ros2::Ros2Config;
+use gfs_ros2::msg::{CameraInfo, Image, Odometry, StringMsg, TfMessage};
+use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::qos::{History, QosProfile};
+use ros2_client::{
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, Subscription,
+};
+use std::net::Ipv4Addr;
+
+/// What can go wrong setting up DDS.
+pub type DdsError = Box<dyn std::error::Error + Send + Sync>;
+
+/// The node's subscriptions and publishers.
+pub struct Endpoints {
+    /// Colour images.
+    pub colour: Subscription<Image>,
+    /// Depth images.
+    pub depth: Subscription<Image>,
+    /// Camera info.
+    pub camera_info: Subscription<CameraInfo>,
+    /// `/odom`.
+    pub odom: Publisher<Odometry>,
+    /// `/tf`.
+    pub tf: Publisher<TfMessage>,
+    /// Status.
+    pub status: Publisher<StringMsg>,
+    _node: Node,
+}
+
+/// `ROS_DOMAIN_ID` (0 when unset).
+///
+/// # Errors
+/// A value that is not a domain id 0..=232.
+pub fn domain_id() -> Result<u16, DdsError> {
+    match std::env::var("ROS_DOMAIN_ID") {
+        Ok(v) if !v.trim().is_empty() => {
+            let id: u16 = v
+                .trim()
+                .parse()
+                .map_err(|_| format!("ROS_DOMAIN_ID={v:?} is not a number"))?;
+            if id > 232 {
+                return Err(format!("ROS_DOMAIN_ID={id} is above 232").into());
+            }
+            Ok(id)
+        }
+        _ => Ok(0),
+    }
+}
+
+/// True when ROS 2's environment asks for loopback-only discovery.
+pub fn localhost_only() -> bool {
+    let var = |name| std::env::var(name).unwrap_or_default();
+    var("ROS_LOCALHOST_ONLY").trim() == "1"
+        || var("ROS_AUTOMATIC_DISCOVERY_RANGE")
+            .trim()
+            .eq_ignore_ascii_case("LOCALHOST")
+}
+
+/// Sensor-data QoS of the camera subscriptions: best effort, the last few messages.
+fn sensor_qos() -> QosProfile {
+    QosProfile::subscription_default().history(History::KeepLast { depth: 5 })
+}
+
+/// The participant on the ROS domain and the node `name` on it.
+fn node(name: &str) -> Result<Node, DdsError> {
+    let mut builder = DomainParticipantBuilder::new(domain_id()?);
+    if localhost_only() {
+        builder = builder
+            .with_only_networks([Ipv4Addr::LOCALHOST])
+            .same_host_loopback(true);
+    }
+    let context = Context::from_domain_participant(builder.build()?)?;
+    Ok(context.new_node(
+        NodeName::new("/", name)?,
+        NodeOptions::new().enable_rosout(false),
+    )?)
+}
+
+fn topic(
+    node: &mut Node,
+    name: &str,
+    pkg: &str,
+    ty: &str,
+    qos: &QosProfile,
+) -> Result<ros2_client::dds::rustdds::Topic, DdsError> {
+    Ok(node.create_topic(&Name::parse(name)?, MessageTypeName::new(pkg, ty), qos)?)
+}
+
+/// A node subscribed to the camera info alone (the camera probe: subscribing to the
+/// images too would tell a driver waiting for subscribers to start too early).
+///
+/// # Errors
+/// [`DdsError`] when the participant or the subscription cannot be created.
+pub fn camera_info_only(config: &Ros2Config) -> Result<(Node, Subscription<CameraInfo>), DdsError> {
+    let mut node = node("gfsvo_camera_probe")?;
+    let sensor = sensor_qos();
+    let info = topic(
+        &mut node,
+        &config.camera_info_topic,
+        "sensor_msgs",
+        "CameraInfo",
+        &sensor,
+    )?;
+    let subscription = node.create_subscription(&info, Some(sensor))?;
+    Ok((node, subscription))
+}
+
+/// Creates the participant, the node `gfsvo` and its endpoints.
+///
+/// # Errors
+/// [`DdsError`] when the participant, a topic name or an endpoint cannot be created.
+pub fn endpoints(config: &Ros2Config) -> Result<Endpoints, DdsError> {
+    let mut node = node("gfsvo")?;
+    let sensor = sensor_qos();
+    let output = QosProfile::publisher_default().history(History::KeepLast { depth: 50 });
+    let colour_topic = topic(
+        &mut node,
+        &config.colour_topic,
+        "sensor_msgs",
+        "Image",
+        &sensor,
+    )?;
+    let depth_topic = topic(
+        &mut node,
+        &config.depth_topic,
+        "sensor_msgs",
+        "Image",
+        &sensor,
+    )?;
+    let info_topic = topic(
+        &mut node,
+        &config.camera_info_topic,
+        "sensor_msgs",
+        "CameraInfo",
+        &sensor,
+    )?;
+    let odom_topic = topic(
+        &mut node,
+        &config.odom_topic,
+        "nav_msgs",
+        "Odometry",
+        &output,
+    )?;
+    let tf_topic = topic(
+        &mut node,
+        &config.tf_topic,
+        "tf2_msgs",
+        "TFMessage",
+        &output,
+    )?;
+    let status_topic = topic(
+        &mut node,
+        &config.status_topic,
+        "std_msgs",
+        "String",
+        &output,
+    )?;
+    Ok(Endpoints {
+        colour: node.create_subscription(&colour_topic, Some(sensor.clone()))?,
+        depth: node.create_subscription(&depth_topic, Some(sensor.clone()))?,
+        camera_info: node.create_subscription(&info_topic, Some(sensor))?,
+        odom: node.create_publisher(&odom_topic, Some(output.clone()))?,
+        tf: node.create_publisher(&tf_topic, Some(output.clone()))?,
+        status: node.create_publisher(&status_topic, Some(output))?,
+        _node: node,
+    })
+}

@@ -1,0 +1,48 @@
+"""Reads a `gfsvo run --mcap` recording with PyPI mcap-ros2-support and checks every
+/odom against trajectory.txt: the base pose in odom turned back into the camera pose
+with the default camera-in-base extrinsic (REP 103 optical frame)."""
+import sys
+
+import numpy as np
+from mcap_ros2.reader import read_ros2_messages
+
+
+def rot(q):
+    x, y, z, w = q
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def matrix(t, q):
+    m = np.eye(4)
+    m[:3, :3] = rot(q)
+    m[:3, 3] = t
+    return m
+
+
+mcap_path, trajectory = sys.argv[1], sys.argv[2]
+rows = [list(map(float, l.split())) for l in open(trajectory) if l.strip() and not l.startswith("#")]
+by_stamp = {round(r[0], 6): r for r in rows}
+base = matrix([0, 0, 0], [-0.5, 0.5, -0.5, 0.5])
+odoms, statuses, worst = 0, 0, 0.0
+for m in read_ros2_messages(mcap_path):
+    if m.channel.topic == "/gfsvo/status":
+        statuses += 1
+    if m.channel.topic != "/odom":
+        continue
+    o = m.ros_msg
+    p, q = o.pose.pose.position, o.pose.pose.orientation
+    stamp = o.header.stamp.sec + o.header.stamp.nanosec * 1e-9
+    row = by_stamp[round(stamp, 6)]
+    camera = np.linalg.inv(base) @ matrix([p.x, p.y, p.z], [q.x, q.y, q.z, q.w]) @ base
+    want = matrix(row[1:4], row[4:8])
+    worst = max(worst, float(np.abs(camera - want).max()))
+    assert o.header.frame_id == "odom" and o.child_frame_id == "base_link"
+    odoms += 1
+print(f"mcap: {odoms} /odom, {statuses} status messages; trajectory.txt has {len(rows)} poses; "
+      f"largest difference {worst:.2e}")
+assert odoms == len(rows) == statuses, "one /odom per pose"
+assert worst < 1e-6, "every /odom equals trajectory.txt"

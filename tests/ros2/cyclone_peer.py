@@ -1,0 +1,301 @@
+"""The ROS 2 camera driver and navigation stack that no one here wrote: Eclipse Cyclone
+DDS (PyPI cyclonedds) publishes a TUM folder at 30 Hz as sensor_msgs/Image (rgb8 and
+16UC1 millimetres, REP 118) + CameraInfo on the realsense topics, and subscribes to
+/odom. Prints frames received and the latency colour published -> odometry received;
+writes the /odom poses as JSON lines.
+
+Usage: cyclone_peer.py FOLDER OUT.jsonl [--rate 30] [--wait-match 60]
+
+Cyclone's Python writer must use XCDR1 to be read by RustDDS. Images are serialised by
+hand (numpy bytes after the CDR header fields), once, before publishing starts: the IDL
+serialiser writes a uint8 sequence element by element, too slow for 30 Hz in Python."""
+import argparse
+import json
+import os
+import struct
+import subprocess
+import threading
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from cyclonedds.domain import DomainParticipant
+from cyclonedds.idl import IdlStruct
+from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
+from cyclonedds.pub import DataWriter
+from cyclonedds.qos import Policy, Qos
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+import tum
+
+
+@dataclass
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: int32
+    nanosec: uint32
+
+
+@dataclass
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time
+    frame_id: str
+
+
+class Cdr:
+    """Little-endian CDR (XCDR1) written field by field, aligned from after the header."""
+
+    def __init__(self):
+        self.parts = [b"\x00\x01\x00\x00"]
+        self.n = 0
+
+    def _put(self, b):
+        self.parts.append(b)
+        self.n += len(b)
+
+    def align(self, k):
+        pad = (-self.n) % k
+        if pad:
+            self._put(b"\0" * pad)
+
+    def u32(self, v, fmt="<I"):
+        self.align(4)
+        self._put(struct.pack(fmt, v))
+
+    def u8(self, v):
+        self._put(struct.pack("<B", v))
+
+    def string(self, s):
+        b = s.encode() + b"\0"
+        self.u32(len(b))
+        self._put(b)
+
+    def f64s(self, values):
+        self.align(8)
+        self._put(np.asarray(values, dtype="<f8").tobytes())
+
+    def header(self, sec, nanosec, frame):
+        self.u32(sec, "<i")
+        self.u32(nanosec)
+        self.string(frame)
+
+    def bytes(self):
+        return b"".join(self.parts)
+
+
+@dataclass
+class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
+    header: Header
+    height: uint32
+    width: uint32
+    encoding: str
+    is_bigendian: uint8
+    step: uint32
+    data: sequence[uint8]
+
+    def serialize(self, buffer=None, endianness=None, use_version_2=None):
+        return self.data  # the whole payload, built by image_payload
+
+
+def image_payload(sec, nanosec, frame, pixels, encoding, bytes_per_pixel):
+    h, w = pixels.shape[:2]
+    c = Cdr()
+    c.header(sec, nanosec, frame)
+    c.u32(h)
+    c.u32(w)
+    c.string(encoding)
+    c.u8(0)
+    c.u32(w * bytes_per_pixel)
+    raw = np.ascontiguousarray(pixels).tobytes()
+    c.u32(len(raw))
+    c._put(raw)
+    return c.bytes()
+
+
+@dataclass
+class RegionOfInterest(IdlStruct, typename="sensor_msgs::msg::dds_::RegionOfInterest_"):
+    x_offset: uint32
+    y_offset: uint32
+    height: uint32
+    width: uint32
+    do_rectify: bool
+
+
+@dataclass
+class CameraInfo(IdlStruct, typename="sensor_msgs::msg::dds_::CameraInfo_"):
+    header: Header
+    height: uint32
+    width: uint32
+    distortion_model: str
+    d: sequence[float64]
+    k: array[float64, 9]
+    r: array[float64, 9]
+    p: array[float64, 12]
+    binning_x: uint32
+    binning_y: uint32
+    roi: RegionOfInterest
+
+
+@dataclass
+class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
+    x: float64
+    y: float64
+    z: float64
+    w: float64
+
+
+@dataclass
+class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
+    position: Point
+    orientation: Quaternion
+
+
+@dataclass
+class PoseWithCovariance(IdlStruct, typename="geometry_msgs::msg::dds_::PoseWithCovariance_"):
+    pose: Pose
+    covariance: array[float64, 36]
+
+
+@dataclass
+class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+class Twist(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
+    linear: Vector3
+    angular: Vector3
+
+
+@dataclass
+class TwistWithCovariance(IdlStruct, typename="geometry_msgs::msg::dds_::TwistWithCovariance_"):
+    twist: Twist
+    covariance: array[float64, 36]
+
+
+@dataclass
+class Odometry(IdlStruct, typename="nav_msgs::msg::dds_::Odometry_"):
+    header: Header
+    child_frame_id: str
+    pose: PoseWithCovariance
+    twist: TwistWithCovariance
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("folder")
+    ap.add_argument("out")
+    ap.add_argument("--rate", type=float, default=30.0)
+    ap.add_argument("--wait-match", type=float, default=60.0)
+    ap.add_argument("--linger", type=float, default=5.0)
+    ap.add_argument("--on-frame", type=int, default=-1,
+                    help="run --command when this frame is published (fault test)")
+    ap.add_argument("--command", default="")
+    args = ap.parse_args()
+
+    frame = "camera_color_optical_frame"
+    frames = []
+    t0 = time.time()
+    for t_rgb, t_depth, rgb_path, depth_path in tum.frames(args.folder):
+        sec, ns = tum.stamp(t_rgb)
+        dsec, dns = tum.stamp(t_depth)
+        # REP 118: 16UC1 in millimetres (TUM stores 5000 units per metre).
+        mm = np.round(tum.depth_raw(depth_path).astype(np.float64) / 5.0).astype("<u2")
+        frames.append((t_rgb, sec, ns,
+                       image_payload(sec, ns, frame, tum.rgb8(rgb_path), "rgb8", 3),
+                       image_payload(dsec, dns, frame, mm, "16UC1", 2)))
+    print(f"cyclone: {len(frames)} frames loaded in {time.time() - t0:.1f} s", flush=True)
+
+    dp = DomainParticipant(int(os.environ.get("ROS_DOMAIN_ID", "0") or 0))
+    xcdr1 = Policy.DataRepresentation(use_cdrv0_representation=True)
+    sensor = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(5), xcdr1)
+    reliable = Qos(Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
+                   Policy.History.KeepLast(50), xcdr1)
+    colour_w = DataWriter(dp, Topic(dp, "rt/camera/color/image_raw", Image), qos=sensor)
+    depth_w = DataWriter(dp, Topic(dp, "rt/camera/aligned_depth_to_color/image_raw", Image), qos=sensor)
+    info_w = DataWriter(dp, Topic(dp, "rt/camera/color/camera_info", CameraInfo), qos=sensor)
+    odom_r = DataReader(dp, Topic(dp, "rt/odom", Odometry), qos=reliable)
+
+    c = tum.FR1
+
+    def camera_info(sec, ns):
+        return CameraInfo(Header(Time(sec, ns), frame), 480, 640, "plumb_bob", c["d"],
+                          [c["fx"], 0, c["cx"], 0, c["fy"], c["cy"], 0, 0, 1],
+                          [1, 0, 0, 0, 1, 0, 0, 0, 1],
+                          [c["fx"], 0, c["cx"], 0, 0, c["fy"], c["cy"], 0, 0, 0, 1, 0],
+                          0, 0, RegionOfInterest(0, 0, 0, 0, False))
+
+    # A driver publishes its CameraInfo from the start (gfsvo ros2 reads the camera
+    # from it before it starts the pipeline).
+    deadline = time.time() + args.wait_match
+    while time.time() < deadline:
+        if colour_w.get_matched_subscriptions() and depth_w.get_matched_subscriptions():
+            break
+        info_w.write(camera_info(*tum.stamp(frames[0][0])))
+        time.sleep(0.1)
+    else:
+        raise SystemExit("cyclone: gfsvo-ros2 did not subscribe within the wait")
+    time.sleep(1.0)
+
+    published = {}
+    received = {}
+    stop = threading.Event()
+
+    def read_odom():
+        while not stop.is_set():
+            for o in odom_r.take(N=100):
+                now = time.time()
+                key = (o.header.stamp.sec, o.header.stamp.nanosec)
+                p, q = o.pose.pose.position, o.pose.pose.orientation
+                received.setdefault(key, (now, [p.x, p.y, p.z, q.x, q.y, q.z, q.w],
+                                          o.header.frame_id, o.child_frame_id,
+                                          o.pose.covariance[0]))
+            time.sleep(0.002)
+
+    reader = threading.Thread(target=read_odom)
+    reader.start()
+    start = time.time()
+    for i, (t_rgb, sec, ns, colour, depth) in enumerate(frames):
+        due = start + i / args.rate
+        while (now := time.time()) < due:
+            time.sleep(min(0.002, due - now))
+        info = camera_info(sec, ns)
+        published[(sec, ns)] = time.time()
+        colour_w.write(Image(None, 0, 0, "", 0, 0, colour))
+        depth_w.write(Image(None, 0, 0, "", 0, 0, depth))
+        if i % 30 == 0:
+            info_w.write(info)
+        if i == args.on_frame and args.command:
+            subprocess.Popen(args.command, shell=True)
+    print(f"cyclone: published {len(frames)} frames in {time.time() - start:.1f} s", flush=True)
+    time.sleep(args.linger)
+    stop.set()
+    reader.join()
+
+    latencies = sorted(1e3 * (received[k][0] - published[k]) for k in received if k in published)
+    with open(args.out, "w") as f:
+        for (sec, ns), (_, pose, frame_id, child, var_x) in sorted(received.items()):
+            f.write(json.dumps({"stamp": sec + ns * 1e-9, "pose": pose, "frame_id": frame_id,
+                                "child_frame_id": child, "var_x": var_x}) + "\n")
+    share = len(latencies) / len(frames)
+    with open(args.out + ".summary.json", "w") as f:
+        json.dump({"frames": len(frames), "received": len(latencies),
+                   "latency_ms": latencies}, f)
+    p = lambda q: latencies[min(len(latencies) - 1, int(q * len(latencies)))] if latencies else float("nan")
+    print(f"cyclone: /odom received for {len(latencies)} of {len(frames)} frames ({100 * share:.1f} %); "
+          f"latency colour published -> /odom received p50 {p(0.5):.1f} ms, p99 {p(0.99):.1f} ms",
+          flush=True)
+
+
+if __name__ == "__main__":
+    main()
