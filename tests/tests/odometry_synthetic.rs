@@ -46,6 +46,7 @@ fn run(
     )
     .unwrap();
     frontend.set_keep_depth(config.tracking.use_depth_alignment);
+    frontend.set_keep_planes(config.tracking.use_planes);
     let mut odometry = Odometry::new(
         config,
         camera,

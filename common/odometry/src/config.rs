@@ -3,6 +3,7 @@
 
 use crate::depth_alignment::DepthAlignmentConfig;
 use crate::matching::{LineMatchConfig, PointMatchConfig};
+use crate::plane_association::PlaneTrackingConfig;
 use gfs_optim::{BaConfig, PoseOptimizerConfig};
 use serde::Deserialize;
 
@@ -31,6 +32,12 @@ pub struct TrackingConfig {
     /// fail, and flag `degraded` from the pose's information instead of an inlier count
     /// (ablation switch). Default false.
     pub use_depth_alignment: bool,
+    /// Planes as landmarks: the frame's BFS planes associated with the map's planes
+    /// (plane-to-plane errors in the pose optimisation), and map planes created, fused
+    /// and culled with the keyframes (ablation switch). Default false.
+    pub use_planes: bool,
+    /// `[tracking.planes]`: plane association gates and weights.
+    pub planes: PlaneTrackingConfig,
     /// `[tracking.depth]`: the depth alignment.
     pub depth: DepthAlignmentConfig,
     /// Point matching thresholds.
@@ -73,6 +80,8 @@ impl Default for TrackingConfig {
             use_lines: true,
             use_manhattan: true,
             use_depth_alignment: false,
+            use_planes: false,
+            planes: PlaneTrackingConfig::default(),
             depth: DepthAlignmentConfig::default(),
             points: PointMatchConfig::default(),
             lines: LineMatchConfig::default(),

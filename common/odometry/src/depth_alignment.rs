@@ -226,7 +226,10 @@ mod tests {
                 &pose,
                 &[],
                 &[],
-                pairs,
+                gfs_optim::SurfaceObservations {
+                    depth: pairs,
+                    planes: &[],
+                },
                 &gfs_optim::PoseOptimizerConfig::default(),
                 &mut result,
             );

@@ -3,7 +3,7 @@
 use crate::depth_grid::DepthGrid;
 use gfs_core::ids::FrameId;
 use gfs_lines::{DetectedLine, Line3};
-use gfs_planes::ManhattanAxes;
+use gfs_planes::{ManhattanAxes, Plane};
 use gfs_points::KeyPoint;
 
 /// 256-bit binary descriptors (ORB rBRIEF and binary LBD share the layout) and their
@@ -31,6 +31,9 @@ pub struct FrameFeatures {
     pub lines3d: Vec<Line3>,
     /// Manhattan axes of the frame, in the camera frame, if the scene showed structure.
     pub manhattan: Option<ManhattanAxes>,
+    /// The frame's BFS planes, camera frame (empty unless `[tracking] use_planes`).
+    #[serde(default)]
+    pub planes: Vec<Plane>,
     /// The frame's depth, sub-sampled points and normals (empty when the planes stage
     /// did not run or does not deliver it).
     #[serde(default)]
@@ -50,6 +53,7 @@ impl FrameFeatures {
             line_descriptors: self.line_descriptors.clone(),
             lines3d: self.lines3d.clone(),
             manhattan: self.manhattan,
+            planes: self.planes.clone(),
             depth: DepthGrid::default(),
         }
     }

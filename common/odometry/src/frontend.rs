@@ -63,6 +63,11 @@ impl StructureExtractor {
         })
     }
 
+    /// The last frame's BFS planes.
+    pub fn planes(&self) -> &[Plane] {
+        &self.plane_out
+    }
+
     /// The last frame's depth points and normals, every [`DEPTH_GRID_STEP`]-th node of
     /// the normal grid, into `out`.
     pub fn depth_grid(&self, out: &mut DepthGrid) {
@@ -120,6 +125,7 @@ pub struct Frontend {
     use_lines: bool,
     use_manhattan: bool,
     keep_depth: bool,
+    keep_planes: bool,
     orb: OrbExtractor,
     orb_out: OrbFeatures,
     lines: LineExtractor,
@@ -154,6 +160,7 @@ impl Frontend {
             use_lines,
             use_manhattan,
             keep_depth: false,
+            keep_planes: false,
         })
     }
 
@@ -162,6 +169,12 @@ impl Frontend {
     /// Off by default: the grid is 115 kB a frame.
     pub fn set_keep_depth(&mut self, keep: bool) {
         self.keep_depth = keep;
+    }
+
+    /// Whether the frames carry their BFS planes ([`FrameFeatures::planes`], for
+    /// `[tracking] use_planes`; it needs the planes stage, `use_manhattan`).
+    pub fn set_keep_planes(&mut self, keep: bool) {
+        self.keep_planes = keep;
     }
 
     /// Stage timings of the last [`Self::extract`].
@@ -195,6 +208,7 @@ impl Frontend {
         let lines_done = Instant::now();
         let mut manhattan = None;
         let mut depth_grid = DepthGrid::default();
+        let mut planes = Vec::new();
         if self.use_manhattan {
             manhattan = self.structure.extract(
                 &depth,
@@ -204,6 +218,9 @@ impl Frontend {
             )?;
             if self.keep_depth {
                 self.structure.depth_grid(&mut depth_grid);
+            }
+            if self.keep_planes {
+                planes.extend_from_slice(self.structure.planes());
             }
         }
         self.timings = FrontendTimings {
@@ -220,6 +237,7 @@ impl Frontend {
             line_descriptors: self.line_out.descriptors.clone(),
             lines3d: self.line_out.lines3d.clone(),
             manhattan,
+            planes,
             depth: depth_grid,
         })
     }

@@ -89,9 +89,10 @@ pub fn needs_keyframe(
     let lines_low = reference_lines >= MIN_REFERENCE_LINES
         && (frame.inliers.lines as f32) < reference_lines as f32 * config.line_ratio;
     let timeout = frames_since_keyframe >= config.max_frames;
-    // A frame the depth alignment determined on its own may map its points too: that is
-    // how a low-texture view gets its first landmarks.
-    let on_depth_alone = frame.inliers.depth > 0 && frame.status == TrackingStatus::Tracked;
+    // A frame the depth alignment or the planes determined on their own may map its
+    // points too: that is how a low-texture view gets its first landmarks.
+    let on_depth_alone = (frame.inliers.depth > 0 || frame.inliers.planes > 0)
+        && frame.status == TrackingStatus::Tracked;
     let posed = frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME || on_depth_alone;
     // Tracked on depth with no map point in view: its close keypoints are the map's
     // only chance to get points here.

@@ -9,6 +9,8 @@ use crate::local_ba::LocalMapBa;
 use crate::manhattan::WorldManhattan;
 use crate::map::{KeyFrame, Map, MapLine, MapPoint};
 use crate::matching::ScalePyramid;
+use crate::plane_association::PlaneTrackingConfig;
+use crate::plane_mapping::map_planes;
 use crate::tracker::TrackedFrame;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{KeyFrameId, MapPointId};
@@ -48,6 +50,7 @@ pub struct Mapper {
     ba: LocalMapBa,
     grid: KeyPointGrid,
     nearby: Vec<usize>,
+    planes: PlaneTrackingConfig,
 }
 
 impl Mapper {
@@ -58,6 +61,7 @@ impl Mapper {
             recent_points: Vec::new(),
             grid: KeyPointGrid::new(camera.width, camera.height, FUSE_GRID_CELL_PX),
             nearby: Vec::new(),
+            planes: config.tracking.planes.clone(),
             config: config.mapping.clone(),
             keyframes: config.keyframes.clone(),
             camera,
@@ -102,6 +106,7 @@ impl Mapper {
             features: frame.features.without_depth(),
             point_ids: frame.point_ids.clone(),
             line_ids: frame.line_ids.clone(),
+            plane_ids: frame.plane_ids.clone(),
         };
         let kf = map.insert_keyframe(keyframe);
         for id in frame.point_ids.iter().flatten() {
@@ -110,6 +115,8 @@ impl Mapper {
         }
         self.create_points(map, kf);
         self.create_lines(map, kf, manhattan);
+        // The frames carry planes only with `[tracking] use_planes`.
+        map_planes(map, kf, &self.planes);
         self.cull_recent_points(map, kf);
         self.fuse(map, kf);
         if self.config.local_ba {

@@ -8,8 +8,8 @@ use crate::observation::{KeypointMeasurement, LINE_INV_SIGMA2, observed_line};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{MapLineId, MapPointId};
 use gfs_optim::{
-    DepthObservation, LineObservation, PointObservation, PoseOptimizerConfig, PoseResult,
-    optimize_pose_with_depth,
+    DepthObservation, LineObservation, PlaneObservation, PointObservation, PoseOptimizerConfig,
+    PoseResult, SurfaceObservations, optimize_pose_with_depth,
 };
 use nalgebra::{Isometry3, Matrix6};
 
@@ -23,6 +23,9 @@ pub struct Inliers {
     /// Depth point-to-plane pairs that passed it (0 without the depth alignment).
     #[serde(default)]
     pub depth: usize,
+    /// Plane-to-plane observations that passed it (0 without `use_planes`).
+    #[serde(default)]
+    pub planes: usize,
 }
 
 impl Inliers {
@@ -43,6 +46,7 @@ pub struct PoseSolver {
     lines: Vec<LineObservation>,
     line_index: Vec<usize>,
     depth: Vec<DepthObservation>,
+    planes: Vec<PlaneObservation>,
     result: PoseResult,
 }
 
@@ -58,6 +62,7 @@ impl PoseSolver {
             lines: Vec::new(),
             line_index: Vec::new(),
             depth: Vec::new(),
+            planes: Vec::new(),
             result: PoseResult::default(),
         }
     }
@@ -66,6 +71,17 @@ impl PoseSolver {
     pub fn set_depth(&mut self, observations: &[DepthObservation]) {
         self.depth.clear();
         self.depth.extend_from_slice(observations);
+    }
+
+    /// The plane observations the next [`Self::solve`] adds (none until set).
+    pub fn set_planes(&mut self, observations: &[PlaneObservation]) {
+        self.planes.clear();
+        self.planes.extend_from_slice(observations);
+    }
+
+    /// Per plane observation of the last solve: inlier at its pose.
+    pub fn plane_inliers(&self) -> &[bool] {
+        &self.result.plane_inliers
     }
 
     /// Information matrix of the last solve's inliers (left perturbation `[rho; phi]`).
@@ -121,7 +137,11 @@ impl PoseSolver {
             });
             self.line_index.push(j);
         }
-        if self.points.is_empty() && self.lines.is_empty() && self.depth.is_empty() {
+        if self.points.is_empty()
+            && self.lines.is_empty()
+            && self.depth.is_empty()
+            && self.planes.is_empty()
+        {
             self.result.information = Matrix6::zeros();
             return Inliers::default();
         }
@@ -130,7 +150,10 @@ impl PoseSolver {
             camera_from_world,
             &self.points,
             &self.lines,
-            &self.depth,
+            SurfaceObservations {
+                depth: &self.depth,
+                planes: &self.planes,
+            },
             &self.config,
             &mut self.result,
         );
@@ -149,6 +172,7 @@ impl PoseSolver {
             points: self.result.num_point_inliers,
             lines: self.result.num_line_inliers,
             depth: self.result.num_depth_inliers,
+            planes: self.result.num_plane_inliers,
         }
     }
 

@@ -202,6 +202,7 @@ impl Scene {
             lines,
             lines3d,
             manhattan: None,
+            planes: Vec::new(),
             depth: Default::default(),
         }
     }
@@ -251,7 +252,49 @@ pub fn relinked(keyframe: &KeyFrame) -> TrackedFrame {
     let mut frame = tracked(keyframe.features.clone(), keyframe.camera_from_world);
     frame.point_ids = keyframe.point_ids.clone();
     frame.line_ids = keyframe.line_ids.clone();
+    frame.plane_ids = keyframe.plane_ids.clone();
     frame.inliers.points = frame.point_ids.iter().flatten().count();
     frame.inliers.lines = frame.line_ids.iter().flatten().count();
     frame
+}
+
+/// The BFS planes a frame at `camera_from_world` would give of the planes `n . x = d`
+/// (normals towards the camera, centroids on the plane 2 m ahead), exact.
+pub fn planes_of(
+    camera_from_world: &Isometry3<f64>,
+    planes: &[([f64; 3], f64)],
+) -> Vec<gfs_planes::Plane> {
+    planes
+        .iter()
+        .map(|(n, d)| {
+            let mut n_c = camera_from_world.rotation * Vector3::from(*n);
+            let mut offset = -d - n_c.dot(&camera_from_world.translation.vector);
+            if offset < 0.0 {
+                n_c = -n_c;
+                offset = -offset;
+            }
+            let ahead = Vector3::new(0.0, 0.0, 2.0);
+            let centroid = ahead - (n_c.dot(&ahead) + offset) * n_c;
+            gfs_planes::Plane {
+                normal: n_c.cast::<f32>().into(),
+                offset: offset as f32,
+                pixels: 20_000,
+                centroid: centroid.cast::<f32>().into(),
+            }
+        })
+        .collect()
+}
+
+/// A map started by the mapper from a frame at the identity that sees only the planes
+/// `n . x = d` (no point, no line): one keyframe, one map plane per plane.
+pub fn plane_map(planes: &[([f64; 3], f64)]) -> (Map, KeyFrameId) {
+    let mut map = Map::default();
+    let mut mapper = Mapper::new(&OdometryConfig::default(), camera(), scale());
+    let features = FrameFeatures {
+        planes: planes_of(&Isometry3::identity(), planes),
+        ..FrameFeatures::default()
+    };
+    let frame = tracked(features, Isometry3::identity());
+    let kf = mapper.add_keyframe(&mut map, &frame, &mut WorldManhattan::new(false));
+    (map, kf)
 }

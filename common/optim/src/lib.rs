@@ -66,6 +66,6 @@ pub use ba::{
 };
 pub use degeneracy::{PoseConstraint, analyse_constraint};
 pub use pose::{
-    DepthObservation, LineObservation, PointObservation, PoseOptimizerConfig, PoseResult,
-    optimize_pose, optimize_pose_with_depth,
+    DepthObservation, LineObservation, PlaneObservation, PointObservation, PoseOptimizerConfig,
+    PoseResult, SurfaceObservations, optimize_pose, optimize_pose_with_depth,
 };

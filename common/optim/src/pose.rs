@@ -7,12 +7,12 @@
 
 use crate::lm::Damping;
 use crate::residuals::{
-    LineReprojection, PointReprojection, PointToPlane, StereoPointReprojection,
+    LineReprojection, PlaneToPlane, PointReprojection, PointToPlane, StereoPointReprojection,
 };
 use crate::robust::{CHI2_1DOF_95, CHI2_2DOF_95, CHI2_3DOF_95, DEFAULT_RGBD_BF, Huber};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::se3::retract;
-use nalgebra::{Isometry3, Matrix6, SMatrix, SVector, Vector2, Vector3, Vector6};
+use nalgebra::{Isometry3, Matrix6, SMatrix, SVector, Vector2, Vector3, Vector4, Vector6};
 use serde::Deserialize;
 
 /// A map point matched to a keypoint of the frame.
@@ -56,6 +56,48 @@ pub struct DepthObservation {
     pub inv_sigma2: f64,
 }
 
+/// A plane of the frame associated with a map plane (see [`PlaneToPlane`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlaneObservation {
+    /// The map plane's unit normal, world frame (held fixed).
+    pub normal_in_world: Vector3<f64>,
+    /// The map plane's offset, metres (`n_w . p + d_w = 0`, held fixed).
+    pub offset_in_world: f64,
+    /// The frame's measurement of it, camera frame.
+    pub measured: PlaneToPlane,
+    /// Information of the normal's difference, 1/rad^2.
+    pub inv_sigma2_normal: f64,
+    /// Information of the offset's difference, 1/m^2.
+    pub inv_sigma2_offset: f64,
+}
+
+impl PlaneObservation {
+    /// The whitened error (each row times the square root of its information).
+    fn whitened_error(&self, pose: &Isometry3<f64>) -> Vector4<f64> {
+        let e = self
+            .measured
+            .error(pose, &self.normal_in_world, self.offset_in_world);
+        self.whiten(e)
+    }
+
+    fn whiten(&self, mut e: Vector4<f64>) -> Vector4<f64> {
+        let (wn, wd) = (self.inv_sigma2_normal.sqrt(), self.inv_sigma2_offset.sqrt());
+        e.fixed_rows_mut::<3>(0).scale_mut(wn);
+        e[3] *= wd;
+        e
+    }
+}
+
+/// The dense geometry terms of a pose optimisation besides points and lines: depth
+/// point-to-plane pairs and plane-to-plane observations.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SurfaceObservations<'a> {
+    /// Depth points paired with reference surface elements.
+    pub depth: &'a [DepthObservation],
+    /// Frame planes associated with map planes.
+    pub planes: &'a [PlaneObservation],
+}
+
 /// Parameters of [`optimize_pose`] (the odometry's TOML table `[tracking.pose]`).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -82,6 +124,9 @@ pub struct PoseOptimizerConfig {
     /// Chi-square threshold (and Huber `sqrt`) of a depth point-to-plane distance;
     /// default 3.841 (1 dof, 95 %).
     pub depth_chi2: f64,
+    /// Chi-square threshold (and Huber `sqrt`) of a whitened plane-to-plane error;
+    /// default 7.815 (3 dof, 95 %: two of the normal, one of the offset).
+    pub plane_chi2: f64,
 }
 
 impl Default for PoseOptimizerConfig {
@@ -95,6 +140,7 @@ impl Default for PoseOptimizerConfig {
             bf: DEFAULT_RGBD_BF,
             line_chi2: CHI2_2DOF_95,
             depth_chi2: CHI2_1DOF_95,
+            plane_chi2: CHI2_3DOF_95,
         }
     }
 }
@@ -116,6 +162,10 @@ pub struct PoseResult {
     pub depth_inliers: Vec<bool>,
     /// Number of `true` in `depth_inliers`.
     pub num_depth_inliers: usize,
+    /// Per plane observation (same order as the input): inlier at the final pose.
+    pub plane_inliers: Vec<bool>,
+    /// Number of `true` in `plane_inliers`.
+    pub num_plane_inliers: usize,
     /// Information matrix `J^T Omega J` of the inliers at the final pose (no kernel),
     /// in the left perturbation `[rho; phi]`: which directions the data constrain.
     pub information: Matrix6<f64>,
@@ -134,6 +184,16 @@ pub struct PoseResult {
     /// perturbation `exp(delta) * camera_from_world`, `delta` = (translation, rotation)
     /// in the camera frame. `None` when not converged or the information is singular.
     pub covariance: Option<Matrix6<f64>>,
+}
+
+impl PoseResult {
+    /// Inliers of every kind.
+    pub fn inlier_count(&self) -> usize {
+        self.num_point_inliers
+            + self.num_line_inliers
+            + self.num_depth_inliers
+            + self.num_plane_inliers
+    }
 }
 
 /// Point-to-plane distance of a depth observation at `pose`, metres.
@@ -168,28 +228,32 @@ pub fn optimize_pose(
         initial_camera_from_world,
         points,
         lines,
-        &[],
+        SurfaceObservations::default(),
         config,
         result,
     );
 }
 
-/// [`optimize_pose`] with depth point-to-plane observations as a third residual block,
-/// robustified and outlier-rejected like the others (`depth_chi2`).
+/// [`optimize_pose`] with depth point-to-plane and plane-to-plane observations as
+/// further residual blocks, robustified and outlier-rejected like the others
+/// (`depth_chi2`, `plane_chi2`).
 pub fn optimize_pose_with_depth(
     camera: &PinholeCamera,
     initial_camera_from_world: &Isometry3<f64>,
     points: &[PointObservation],
     lines: &[LineObservation],
-    depth: &[DepthObservation],
+    surfaces: SurfaceObservations<'_>,
     config: &PoseOptimizerConfig,
     result: &mut PoseResult,
 ) {
+    let SurfaceObservations { depth, planes } = surfaces;
     let problem = PoseProblem {
         camera,
         points,
         lines,
         depth,
+        planes,
+        plane_huber: Huber::from_chi2(config.plane_chi2),
         depth_huber: Huber::from_chi2(config.depth_chi2),
         point_huber: Huber::from_chi2(config.point_chi2),
         point_depth_huber: Huber::from_chi2(config.point_depth_chi2),
@@ -203,6 +267,8 @@ pub fn optimize_pose_with_depth(
     result.line_inliers.resize(lines.len(), true);
     result.depth_inliers.clear();
     result.depth_inliers.resize(depth.len(), true);
+    result.plane_inliers.clear();
+    result.plane_inliers.resize(planes.len(), true);
     result.iterations = 0;
     result.converged = false;
     // Every observation that can be evaluated starts as an inlier (ORB-SLAM2).
@@ -211,6 +277,7 @@ pub fn optimize_pose_with_depth(
         point_depth: f64::INFINITY,
         line: f64::INFINITY,
         depth: f64::INFINITY,
+        plane: f64::INFINITY,
     };
     problem.classify(&pose, &unbounded, result);
     let thresholds = Thresholds {
@@ -218,9 +285,10 @@ pub fn optimize_pose_with_depth(
         point_depth: config.point_depth_chi2,
         line: config.line_chi2,
         depth: config.depth_chi2,
+        plane: config.plane_chi2,
     };
     for round in 0..config.rounds {
-        if result.num_point_inliers + result.num_line_inliers + result.num_depth_inliers == 0 {
+        if result.inlier_count() == 0 {
             break;
         }
         let robust = round < config.robust_rounds;
@@ -231,8 +299,7 @@ pub fn optimize_pose_with_depth(
         result.converged = converged;
         problem.classify(&pose, &thresholds, result);
     }
-    result.converged &=
-        result.num_point_inliers + result.num_line_inliers + result.num_depth_inliers > 0;
+    result.converged &= result.inlier_count() > 0;
     result.camera_from_world = pose;
     result.information = problem.linearize(&pose, result, false).h;
     result.rms_error_px = problem.inlier_rms(&pose, result);
@@ -250,6 +317,8 @@ struct PoseProblem<'a> {
     points: &'a [PointObservation],
     lines: &'a [LineObservation],
     depth: &'a [DepthObservation],
+    planes: &'a [PlaneObservation],
+    plane_huber: Huber,
     depth_huber: Huber,
     point_huber: Huber,
     point_depth_huber: Huber,
@@ -263,6 +332,7 @@ struct Thresholds {
     point_depth: f64,
     line: f64,
     depth: f64,
+    plane: f64,
 }
 
 /// The normal equations of one linearisation.
@@ -343,6 +413,11 @@ impl PoseProblem<'_> {
             let e = depth_error(pose, obs);
             *flag = obs.inv_sigma2 > 0.0 && obs.inv_sigma2 * e * e <= thresholds.depth;
         }
+        for (flag, obs) in result.plane_inliers.iter_mut().zip(self.planes) {
+            let s = obs.whitened_error(pose).norm_squared();
+            *flag = s.is_finite() && s <= thresholds.plane;
+        }
+        result.num_plane_inliers = result.plane_inliers.iter().filter(|&&f| f).count();
         result.num_depth_inliers = result.depth_inliers.iter().filter(|&&f| f).count();
         result.num_point_inliers = result.point_inliers.iter().filter(|&&f| f).count();
         result.num_line_inliers = result.line_inliers.iter().filter(|&&f| f).count();
@@ -392,6 +467,15 @@ impl PoseProblem<'_> {
             let e = depth_error(pose, obs);
             let s = obs.inv_sigma2 * e * e;
             cost += if robust { self.depth_huber.cost(s) } else { s };
+        }
+        for (obs, _) in self
+            .planes
+            .iter()
+            .zip(&result.plane_inliers)
+            .filter(|(_, f)| **f)
+        {
+            let s = obs.whitened_error(pose).norm_squared();
+            cost += if robust { self.plane_huber.cost(s) } else { s };
         }
         cost.is_finite().then_some(cost)
     }
@@ -454,6 +538,26 @@ impl PoseProblem<'_> {
                 &nalgebra::Vector1::new(l.error),
                 obs.inv_sigma2,
                 robust.then_some(&self.depth_huber),
+            );
+        }
+        for (obs, _) in self
+            .planes
+            .iter()
+            .zip(&result.plane_inliers)
+            .filter(|(_, f)| **f)
+        {
+            let l = obs
+                .measured
+                .linearize(pose, &obs.normal_in_world, obs.offset_in_world);
+            let mut j = l.d_pose;
+            let (wn, wd) = (obs.inv_sigma2_normal.sqrt(), obs.inv_sigma2_offset.sqrt());
+            j.fixed_rows_mut::<3>(0).scale_mut(wn);
+            j.row_mut(3).scale_mut(wd);
+            n.add(
+                &j,
+                &obs.whiten(l.error),
+                1.0,
+                robust.then_some(&self.plane_huber),
             );
         }
         n
@@ -592,7 +696,18 @@ mod tests {
         let start = retract(&truth, &Vector6::new(0.03, -0.02, 0.02, 0.02, -0.03, 0.01));
         let mut result = PoseResult::default();
         let config = PoseOptimizerConfig::default();
-        optimize_pose_with_depth(&camera, &start, &[], &[], &depth, &config, &mut result);
+        optimize_pose_with_depth(
+            &camera,
+            &start,
+            &[],
+            &[],
+            SurfaceObservations {
+                depth: &depth,
+                planes: &[],
+            },
+            &config,
+            &mut result,
+        );
         let error = result.camera_from_world * truth.inverse();
         assert!(result.converged);
         assert!(error.translation.vector.norm() < 1e-6, "{error}");

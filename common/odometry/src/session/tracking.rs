@@ -219,6 +219,8 @@ impl TrackingSession {
             points = frame.inliers.points,
             lines = frame.inliers.lines,
             depth = frame.inliers.depth,
+            planes = frame.inliers.planes,
+            frame_planes = frame.features.planes.len(),
             keyframe = wants_keyframe,
             keyframes = self.map.keyframe_count(),
             "tracked"
@@ -358,17 +360,29 @@ impl TrackingSession {
         frame
     }
 
-    /// With the depth alignment, a frame whose depth alone determines a pose may start
-    /// a map whatever its keypoints (a low-texture room).
+    /// With the depth alignment or the planes, a frame whose depth or planes alone
+    /// determine a pose may start a map whatever its keypoints (a low-texture room).
     fn depth_determines(&self, frame: &TrackedFrame) -> bool {
         let tracking = &self.config.tracking;
-        tracking.use_depth_alignment
-            && !frame.features.depth.is_empty()
-            && gfs_optim::analyse_constraint(
-                &crate::depth_alignment::self_information(&tracking.depth, &frame.features.depth),
-                tracking.depth.lever_arm_m,
-                tracking.depth.max_sigma_m,
-            )
-            .is_determined()
+        if !tracking.use_depth_alignment && !tracking.use_planes {
+            return false;
+        }
+        let mut information = nalgebra::Matrix6::zeros();
+        if tracking.use_depth_alignment && !frame.features.depth.is_empty() {
+            information +=
+                crate::depth_alignment::self_information(&tracking.depth, &frame.features.depth);
+        }
+        if tracking.use_planes {
+            information += crate::plane_association::self_information(
+                &tracking.planes,
+                &frame.features.planes,
+            );
+        }
+        gfs_optim::analyse_constraint(
+            &information,
+            tracking.depth.lever_arm_m,
+            tracking.depth.max_sigma_m,
+        )
+        .is_determined()
     }
 }

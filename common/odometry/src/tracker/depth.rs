@@ -31,15 +31,21 @@ impl Tracker {
         self.align_depth(map, frame)
     }
 
-    /// Tracks a frame the features lost on its depth alone, from its current (predicted)
-    /// pose and no matches; true when enough depth pairs held and they determine the
-    /// pose (a direction they leave free would drift where the optimiser let it).
-    pub(super) fn track_on_depth(&mut self, map: &Map, frame: &mut TrackedFrame) -> bool {
-        if !self.align_depth(map, frame) {
-            return false;
+    /// Tracks a frame the features lost on its planes and depth alone (each when
+    /// switched on), from its current (predicted) pose and no matches; true when enough
+    /// depth pairs held, or planes did, and together they determine the pose (a
+    /// direction they leave free would drift where the optimiser let it).
+    pub(super) fn track_on_geometry(&mut self, map: &Map, frame: &mut TrackedFrame) -> bool {
+        if self.config.use_planes {
+            self.refine_with_planes(map, frame);
         }
-        frame.inliers.depth > 0
-            && frame.inliers.depth as f64 >= MIN_DEPTH_INLIER_SHARE * self.depth_pairs as f64
+        let depth_ok = self.config.use_depth_alignment
+            && self.align_depth(map, frame)
+            && frame.inliers.depth > 0
+            && frame.inliers.depth as f64 >= MIN_DEPTH_INLIER_SHARE * self.depth_pairs as f64;
+        self.keep_plane_inliers(frame);
+        self.clear_planes();
+        (depth_ok || frame.inliers.planes > 0)
             && self.status_from_information() == TrackingStatus::Tracked
     }
 

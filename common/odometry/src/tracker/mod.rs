@@ -9,6 +9,7 @@
 
 mod depth;
 mod local_map;
+mod planes;
 mod strategies;
 mod tracked_frame;
 
@@ -22,6 +23,7 @@ use crate::matching::{
     LineProjectionMatcher, PointProjectionMatcher, ProjectionCandidate, ScalePyramid,
 };
 use crate::motion::MotionModel;
+use crate::plane_association::PlaneAssociator;
 use crate::pose_solver::{Inliers, PoseSolver};
 use crate::ransac::{Correspondence, RigidRansac};
 use crate::relocalise::relocalise;
@@ -29,7 +31,7 @@ use crate::rolling_shutter;
 use crate::sightings::Sightings;
 use crate::status::TrackingStatus;
 use gfs_core::camera::PinholeCamera;
-use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
+use gfs_core::ids::{KeyFrameId, MapLineId, MapPlaneId, MapPointId};
 use gfs_lines::grid::GridConfig;
 use nalgebra::Isometry3;
 
@@ -81,6 +83,9 @@ pub struct Tracker {
     depth_associator: DepthAssociator,
     /// Depth pairs of the last association pass.
     depth_pairs: usize,
+    plane_associator: PlaneAssociator,
+    /// `(frame plane, map plane)` pairs set on the solver.
+    plane_pairs: Vec<(usize, MapPlaneId)>,
 }
 
 impl Tracker {
@@ -108,6 +113,8 @@ impl Tracker {
             correspondence_keypoints: Vec::new(),
             depth_associator: DepthAssociator::default(),
             depth_pairs: 0,
+            plane_associator: PlaneAssociator::default(),
+            plane_pairs: Vec::new(),
             config,
             camera,
         }
@@ -207,9 +214,17 @@ impl Tracker {
             ok = self.track_local_map(map, &mut frame, sightings);
         }
         let use_depth = self.config.use_depth_alignment;
+        let use_planes = self.config.use_planes;
         if ok {
+            if use_planes {
+                self.refine_with_planes(map, &mut frame);
+            }
             if use_depth {
                 self.refine_with_depth(map, &mut frame);
+            }
+            if use_planes || use_depth {
+                self.keep_plane_inliers(&mut frame);
+                self.clear_planes();
                 frame.status = self.status_from_information();
             } else {
                 frame.status = if frame.inliers.total() < self.config.degraded_inliers {
@@ -222,7 +237,7 @@ impl Tracker {
         }
         frame.restart(&predicted);
         frame.inliers = Inliers::default();
-        if use_depth && self.track_on_depth(map, &mut frame) {
+        if (use_depth || use_planes) && self.track_on_geometry(map, &mut frame) {
             frame.status = self.status_from_information();
             return frame;
         }
