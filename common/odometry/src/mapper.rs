@@ -57,7 +57,12 @@ impl Mapper {
     /// A mapper for `camera` whose keypoints come from the pyramid `scale`.
     pub fn new(config: &OdometryConfig, camera: PinholeCamera, scale: ScalePyramid) -> Self {
         Self {
-            ba: LocalMapBa::new(config.mapping.clone(), camera, scale),
+            ba: LocalMapBa::new(
+                config.mapping.clone(),
+                camera,
+                scale,
+                config.tracking.planes.clone(),
+            ),
             recent_points: Vec::new(),
             grid: KeyPointGrid::new(camera.width, camera.height, FUSE_GRID_CELL_PX),
             nearby: Vec::new(),
@@ -116,7 +121,13 @@ impl Mapper {
         self.create_points(map, kf);
         self.create_lines(map, kf, manhattan);
         // The frames carry planes only with `[tracking] use_planes`.
-        map_planes(map, kf, &self.planes);
+        map_planes(
+            map,
+            kf,
+            &self.planes,
+            manhattan,
+            self.config.manhattan_angle_deg.to_radians(),
+        );
         self.cull_recent_points(map, kf);
         self.fuse(map, kf);
         if self.config.local_ba {

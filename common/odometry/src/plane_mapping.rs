@@ -1,8 +1,12 @@
 //! Plane landmarks in local mapping: a new keyframe's planes that tracking did not pair
 //! join the map plane they agree with (normal and offset within the tracking gates, in
 //! the world) or become new map planes; each plane the keyframe sees is re-estimated from
-//! all its observations, and a plane no second keyframe confirmed is culled.
+//! all its observations and, when its normal is within `max_axis_angle` of a world
+//! Manhattan axis, turned onto that axis (the structural term of planes: walls and floor
+//! of a Manhattan room are then exactly parallel or perpendicular); a plane no second
+//! keyframe confirmed is culled.
 
+use crate::manhattan::WorldManhattan;
 use crate::map::{Map, MapPlane, plane_in_world};
 use crate::plane_association::PlaneTrackingConfig;
 use gfs_core::ids::{KeyFrameId, MapPlaneId};
@@ -11,8 +15,15 @@ use gfs_core::ids::{KeyFrameId, MapPlaneId};
 /// are after two: a plane fitted once may be a BFS region across two surfaces).
 const PLANE_CONFIRM_KEYFRAMES: u64 = 3;
 
-/// Links, creates and fuses the planes of keyframe `kf`, then culls unconfirmed ones.
-pub fn map_planes(map: &mut Map, kf: KeyFrameId, config: &PlaneTrackingConfig) {
+/// Links, creates, fuses and aligns the planes of keyframe `kf`, then culls unconfirmed
+/// ones.
+pub fn map_planes(
+    map: &mut Map,
+    kf: KeyFrameId,
+    config: &PlaneTrackingConfig,
+    manhattan: &WorldManhattan,
+    max_axis_angle: f64,
+) {
     let Some(keyframe) = map.keyframe(kf) else {
         return;
     };
@@ -54,6 +65,7 @@ pub fn map_planes(map: &mut Map, kf: KeyFrameId, config: &PlaneTrackingConfig) {
         .unwrap_or_default();
     for id in seen {
         map.update_plane_geometry(id);
+        align_with_axis(map, id, manhattan, max_axis_angle);
     }
     let unconfirmed: Vec<MapPlaneId> = map
         .planes()
@@ -68,6 +80,24 @@ pub fn map_planes(map: &mut Map, kf: KeyFrameId, config: &PlaneTrackingConfig) {
     for id in unconfirmed {
         map.remove_landmark(id);
     }
+}
+
+/// Turns a plane's normal onto the Manhattan axis it is within `max_angle` of, about
+/// the plane's point nearest the world origin.
+fn align_with_axis(map: &mut Map, id: MapPlaneId, manhattan: &WorldManhattan, max_angle: f64) {
+    let Some(plane) = map.plane_mut(id) else {
+        return;
+    };
+    let Some(axis) = manhattan
+        .axis_of(&plane.normal, max_angle)
+        .and_then(|k| manhattan.axis(k))
+    else {
+        return;
+    };
+    let on_plane = -plane.offset * plane.normal;
+    let normal = axis * axis.dot(&plane.normal).signum();
+    plane.normal = normal;
+    plane.offset = -normal.dot(&on_plane);
 }
 
 #[cfg(test)]

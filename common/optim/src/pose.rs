@@ -72,15 +72,26 @@ pub struct PlaneObservation {
 }
 
 impl PlaneObservation {
+    /// The pose Jacobian of the whitened error.
+    pub fn whitened_d_pose(&self, d_pose: &SMatrix<f64, 4, 6>) -> SMatrix<f64, 4, 6> {
+        let mut j = *d_pose;
+        j.fixed_rows_mut::<3>(0)
+            .scale_mut(self.inv_sigma2_normal.sqrt());
+        j.row_mut(3).scale_mut(self.inv_sigma2_offset.sqrt());
+        j
+    }
+
     /// The whitened error (each row times the square root of its information).
-    fn whitened_error(&self, pose: &Isometry3<f64>) -> Vector4<f64> {
+    pub fn whitened_error(&self, pose: &Isometry3<f64>) -> Vector4<f64> {
         let e = self
             .measured
             .error(pose, &self.normal_in_world, self.offset_in_world);
         self.whiten(e)
     }
 
-    fn whiten(&self, mut e: Vector4<f64>) -> Vector4<f64> {
+    /// Each row of an error (or a Jacobian column) times the square root of its
+    /// information.
+    pub fn whiten(&self, mut e: Vector4<f64>) -> Vector4<f64> {
         let (wn, wd) = (self.inv_sigma2_normal.sqrt(), self.inv_sigma2_offset.sqrt());
         e.fixed_rows_mut::<3>(0).scale_mut(wn);
         e[3] *= wd;
@@ -549,10 +560,7 @@ impl PoseProblem<'_> {
             let l = obs
                 .measured
                 .linearize(pose, &obs.normal_in_world, obs.offset_in_world);
-            let mut j = l.d_pose;
-            let (wn, wd) = (obs.inv_sigma2_normal.sqrt(), obs.inv_sigma2_offset.sqrt());
-            j.fixed_rows_mut::<3>(0).scale_mut(wn);
-            j.row_mut(3).scale_mut(wd);
+            let j = obs.whitened_d_pose(&l.d_pose);
             n.add(
                 &j,
                 &obs.whiten(l.error),

@@ -64,6 +64,7 @@ const PLANE_PASSES: usize = 2;
 mod tests {
     use crate::config::TrackingConfig;
     use crate::frame::FrameFeatures;
+    use crate::plane_association::PlaneTrackingConfig;
     use crate::sightings::Sightings;
     use crate::status::TrackingStatus;
     use crate::testing::{CORNER, camera, plane_map, planes_of, scale};
@@ -72,12 +73,22 @@ mod tests {
     use gfs_lines::grid::GridConfig;
     use nalgebra::{Isometry3, Vector6};
 
-    fn tracker() -> Tracker {
-        let config = TrackingConfig {
+    /// Planes measured exactly: their weights those of planes fitted to 0.25 degrees
+    /// and a quarter of the depth noise.
+    fn config() -> TrackingConfig {
+        TrackingConfig {
             use_planes: true,
+            planes: PlaneTrackingConfig {
+                normal_sigma_deg: 0.25,
+                offset_sigma_scale: 0.25,
+                ..PlaneTrackingConfig::default()
+            },
             ..TrackingConfig::default()
-        };
-        Tracker::new(config, camera(), scale(), &GridConfig::default())
+        }
+    }
+
+    fn tracker() -> Tracker {
+        Tracker::new(config(), camera(), scale(), &GridConfig::default())
     }
 
     fn frame(
@@ -137,7 +148,7 @@ mod tests {
         assert_eq!(tracked.status, TrackingStatus::Predicted);
         let constraint = gfs_optim::analyse_constraint(
             &crate::plane_association::self_information(
-                &TrackingConfig::default().planes,
+                &config().planes,
                 &planes_of(&moved, &walls),
             ),
             2.0,

@@ -66,6 +66,17 @@ pub struct BaLinePrior {
     pub information: [f64; 2],
 }
 
+/// A keyframe's observation of a map plane: the plane-to-plane error of its pose against
+/// the plane, which the BA holds fixed (the planes are re-fitted to the refined poses
+/// afterwards); it ties the keyframes that see the same wall or floor together.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaPlaneObservation {
+    /// Index into [`BaProblem::poses`].
+    pub pose: usize,
+    /// The map plane and the keyframe's measurement, with their information.
+    pub plane: crate::PlaneObservation,
+}
+
 /// The variables and terms of one local BA. Points and lines are updated in place.
 #[derive(Clone, Debug)]
 pub struct BaProblem {
@@ -90,6 +101,8 @@ pub struct BaProblem {
     pub manhattan: Vec<BaManhattan>,
     /// Depth priors of lines (at most one per line).
     pub line_priors: Vec<BaLinePrior>,
+    /// Keyframe observations of (fixed) map planes.
+    pub plane_observations: Vec<BaPlaneObservation>,
 }
 
 impl BaProblem {
@@ -106,6 +119,7 @@ impl BaProblem {
             perpendicular: Vec::new(),
             manhattan: Vec::new(),
             line_priors: Vec::new(),
+            plane_observations: Vec::new(),
         }
     }
 
@@ -187,6 +201,17 @@ impl BaProblem {
                 .all(|v| v.is_finite())
                 && prior.information.iter().all(|w| w.is_finite() && *w >= 0.0);
             finite("line_priors", i, ok)?;
+        }
+        for (i, o) in self.plane_observations.iter().enumerate() {
+            check("plane_observations", i, "pose", o.pose, np)?;
+            let q = &o.plane;
+            let ok = q.normal_in_world.iter().all(|v| v.is_finite())
+                && q.offset_in_world.is_finite()
+                && q.measured.normal_in_camera.iter().all(|v| v.is_finite())
+                && q.measured.offset.is_finite()
+                && q.inv_sigma2_normal.is_finite()
+                && q.inv_sigma2_offset.is_finite();
+            finite("plane_observations", i, ok)?;
         }
         if np > 0 && self.poses.iter().all(|p| !p.fixed) {
             return Err(BaError::NoFixedPose { poses: np });

@@ -43,6 +43,8 @@ pub struct BaFlags {
     pub perpendicular: Vec<bool>,
     /// One per [`BaProblem::manhattan`] association.
     pub manhattan: Vec<bool>,
+    /// One per [`BaProblem::plane_observations`].
+    pub plane_observations: Vec<bool>,
 }
 
 impl BaFlags {
@@ -59,6 +61,10 @@ impl BaFlags {
         reset(&mut self.parallel, problem.parallel.len());
         reset(&mut self.perpendicular, problem.perpendicular.len());
         reset(&mut self.manhattan, problem.manhattan.len());
+        reset(
+            &mut self.plane_observations,
+            problem.plane_observations.len(),
+        );
     }
 }
 
@@ -72,6 +78,7 @@ pub(crate) struct Terms<'a> {
     parallel_huber: Huber,
     perpendicular_huber: Huber,
     manhattan_huber: Huber,
+    plane_huber: Huber,
 }
 
 /// Adds `J^T w J` and `J^T w e` of a residual of one variable to its blocks.
@@ -99,6 +106,7 @@ impl<'a> Terms<'a> {
             parallel_huber: Huber::from_chi2(config.parallel_chi2),
             perpendicular_huber: Huber::from_chi2(config.perpendicular_chi2),
             manhattan_huber: Huber::from_chi2(config.manhattan_chi2),
+            plane_huber: Huber::from_chi2(config.plane_chi2),
         }
     }
 
@@ -179,6 +187,12 @@ impl<'a> Terms<'a> {
         Some(self.config.manhattan_weight * e.norm_squared())
     }
 
+    fn plane_chi2(&self, v: &Values, k: usize) -> Option<f64> {
+        let o = &self.problem.plane_observations[k];
+        let s = o.plane.whitened_error(&v.poses[o.pose]).norm_squared();
+        s.is_finite().then_some(s)
+    }
+
     /// Cost of the line depth priors at `v` (plain least squares: a prior is never an
     /// outlier).
     fn line_prior_cost(&self, v: &Values) -> f64 {
@@ -216,6 +230,9 @@ impl<'a> Terms<'a> {
         for (k, f) in flags.manhattan.iter_mut().enumerate() {
             *f = inlier(self.manhattan_chi2(v, k), self.config.manhattan_chi2);
         }
+        for (k, f) in flags.plane_observations.iter_mut().enumerate() {
+            *f = inlier(self.plane_chi2(v, k), self.config.plane_chi2);
+        }
     }
 
     /// Flags only the terms that cannot be evaluated at `v` (the start of the first
@@ -236,6 +253,9 @@ impl<'a> Terms<'a> {
         }
         for (k, f) in flags.manhattan.iter_mut().enumerate() {
             *f = self.manhattan_chi2(v, k).is_some();
+        }
+        for (k, f) in flags.plane_observations.iter_mut().enumerate() {
+            *f = self.plane_chi2(v, k).is_some();
         }
     }
 
@@ -266,6 +286,9 @@ impl<'a> Terms<'a> {
         }
         for k in (0..flags.manhattan.len()).filter(|&k| self.manhattan_active(flags, k)) {
             ok &= add(self.manhattan_chi2(v, k), &self.manhattan_huber);
+        }
+        for k in (0..flags.plane_observations.len()).filter(|&k| flags.plane_observations[k]) {
+            ok &= add(self.plane_chi2(v, k), &self.plane_huber);
         }
         cost += self.line_prior_cost(v);
         (ok && cost.is_finite()).then_some(cost)
@@ -390,6 +413,28 @@ impl<'a> Terms<'a> {
                 &l.error,
                 w,
             );
+        }
+        for (k, o) in p.plane_observations.iter().enumerate() {
+            if !flags.plane_observations[k] {
+                continue;
+            }
+            let pose = &v.poses[o.pose];
+            let q = &o.plane;
+            let l = q
+                .measured
+                .linearize(pose, &q.normal_in_world, q.offset_in_world);
+            let e = q.whiten(l.error);
+            let s = e.norm_squared();
+            lin.cost += self.plane_huber.cost(s);
+            if !p.poses[o.pose].fixed {
+                add_block(
+                    &mut lin.h_pose[o.pose],
+                    &mut lin.g_pose[o.pose],
+                    &q.whitened_d_pose(&l.d_pose),
+                    &e,
+                    self.plane_huber.weight(s),
+                );
+            }
         }
     }
 
