@@ -1,11 +1,14 @@
 //! The depth term of tracking (`[tracking] use_depth_alignment`): the frame's depth
-//! aligned with the last frame's, point to plane, inside the pose optimisation; and the
+//! aligned with the reference keyframe's (or the last frame's), point to plane, inside the pose optimisation; and the
 //! frame's status from what the combined constraints determine.
 
 use super::{TrackedFrame, Tracker};
+use crate::depth_grid::DepthGrid;
 use crate::map::Map;
 use crate::status::TrackingStatus;
+use gfs_core::ids::KeyFrameId;
 use gfs_optim::analyse_constraint;
+use nalgebra::Isometry3;
 
 /// Share of the associated depth pairs that must stay inliers for a frame tracked on
 /// depth alone: below it the prediction was too far off for the association.
@@ -49,25 +52,30 @@ impl Tracker {
             && self.status_from_information() == TrackingStatus::Tracked
     }
 
-    /// The coarse-to-fine association and optimisation passes.
+    /// The coarse-to-fine association and optimisation passes, against the reference
+    /// keyframe's depth or the last frame's ([`depth_reference`]).
     fn align_depth(&mut self, map: &Map, frame: &mut TrackedFrame) -> bool {
-        let Some(last) = self.last.as_ref() else {
-            return false;
-        };
-        if last.features.depth.is_empty() || frame.features.depth.is_empty() {
-            return false;
-        }
+        self.update_keyframe_depth(map);
         for pass in 0..self.config.depth.max_distance_m.len() {
-            let Some(last) = self.last.as_ref() else {
+            let Some((reference, reference_from_world)) = depth_reference(
+                self.config.depth.keyframe_reference,
+                self.keyframe_depth.as_ref(),
+                self.reference,
+                self.last.as_ref(),
+                map,
+            ) else {
                 return false;
             };
+            if frame.features.depth.is_empty() {
+                return false;
+            }
             let pairs = self.depth_associator.associate(
                 &self.config.depth,
                 &self.camera,
                 &frame.features.depth,
                 &frame.camera_from_world,
-                &last.features.depth,
-                &last.camera_from_world,
+                reference,
+                &reference_from_world,
                 self.config.depth.max_distance_m[pass],
             );
             self.depth_pairs = pairs.len();
@@ -76,6 +84,40 @@ impl Tracker {
         }
         self.solver.set_depth(&[]);
         true
+    }
+
+    /// Keeps the depth of the reference keyframe: when the reference changed to the
+    /// keyframe made of the last frame, that frame's depth is copied (a keyframe does not
+    /// keep its depth in the map).
+    fn update_keyframe_depth(&mut self, map: &Map) {
+        if !self.config.depth.keyframe_reference {
+            return;
+        }
+        let Some(reference) = self.reference else {
+            return;
+        };
+        if self
+            .keyframe_depth
+            .as_ref()
+            .is_some_and(|(kf, _)| *kf == reference)
+        {
+            return;
+        }
+        let Some(last) = self.last.as_ref() else {
+            return;
+        };
+        let made_of_last = map
+            .keyframe(reference)
+            .is_some_and(|k| k.features.id == last.features.id);
+        if made_of_last && !last.features.depth.is_empty() {
+            let mut grid = self
+                .keyframe_depth
+                .take()
+                .map(|(_, g)| g)
+                .unwrap_or_default();
+            grid.clone_from(&last.features.depth);
+            self.keyframe_depth = Some((reference, grid));
+        }
     }
 
     /// `Degraded` when the last optimisation's information leaves a pose direction
@@ -98,6 +140,28 @@ impl Tracker {
             TrackingStatus::Degraded
         }
     }
+}
+
+/// The depth the frame is aligned with, and its pose: with `[tracking.depth]
+/// keyframe_reference`, the reference keyframe's (at its pose in the map, which the local
+/// BA refines: the frame is tied to the map, not to the last frame's drift), else, or
+/// when that depth was not kept, the last frame's.
+fn depth_reference<'a>(
+    keyframe_reference: bool,
+    keyframe_depth: Option<&'a (KeyFrameId, DepthGrid)>,
+    reference: Option<KeyFrameId>,
+    last: Option<&'a TrackedFrame>,
+    map: &Map,
+) -> Option<(&'a DepthGrid, Isometry3<f64>)> {
+    if keyframe_reference
+        && let Some((kf, grid)) = keyframe_depth
+        && Some(*kf) == reference
+        && let Some(keyframe) = map.keyframe(*kf)
+    {
+        return Some((grid, keyframe.camera_from_world));
+    }
+    let last = last?;
+    (!last.features.depth.is_empty()).then_some((&last.features.depth, last.camera_from_world))
 }
 
 #[cfg(test)]

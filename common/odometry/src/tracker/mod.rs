@@ -86,6 +86,8 @@ pub struct Tracker {
     plane_associator: PlaneAssociator,
     /// `(frame plane, map plane)` pairs set on the solver.
     plane_pairs: Vec<(usize, MapPlaneId)>,
+    /// The reference keyframe's depth (`[tracking.depth] keyframe_reference`).
+    keyframe_depth: Option<(KeyFrameId, crate::depth_grid::DepthGrid)>,
 }
 
 impl Tracker {
@@ -115,6 +117,7 @@ impl Tracker {
             depth_pairs: 0,
             plane_associator: PlaneAssociator::default(),
             plane_pairs: Vec::new(),
+            keyframe_depth: None,
             config,
             camera,
         }
