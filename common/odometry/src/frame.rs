@@ -40,6 +40,16 @@ pub struct FrameFeatures {
     pub depth: DepthGrid,
 }
 
+/// The parts of [`FrameFeatures`] that only the depth and plane terms use: what the
+/// pipeline's planes stage sends beside the Manhattan axes when they are switched on.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FrameSurfaces {
+    /// The frame's BFS planes (empty unless `[tracking] use_planes`).
+    pub planes: Vec<Plane>,
+    /// The frame's depth grid (empty unless `[tracking] use_depth_alignment`).
+    pub depth: DepthGrid,
+}
+
 impl FrameFeatures {
     /// A copy without the depth grid, which serves the tracker's next frame only (the
     /// map's keyframes do not keep it).

@@ -3,7 +3,7 @@
 //! This is the `inline` mode's front end and the tests' way to make [`FrameFeatures`].
 
 use crate::depth_grid::DepthGrid;
-use crate::frame::FrameFeatures;
+use crate::frame::{FrameFeatures, FrameSurfaces};
 use gfs_core::ImageView;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::FrameId;
@@ -72,6 +72,20 @@ impl StructureExtractor {
     /// the normal grid, into `out`.
     pub fn depth_grid(&self, out: &mut DepthGrid) {
         out.sample(self.planes.normals(), DEPTH_GRID_STEP);
+    }
+
+    /// The last frame's planes and depth grid, each when asked for, into `out` (its
+    /// buffers reused).
+    pub fn surfaces(&self, planes: bool, depth: bool, out: &mut FrameSurfaces) {
+        out.planes.clear();
+        if planes {
+            out.planes.extend_from_slice(&self.plane_out);
+        }
+        if depth {
+            self.depth_grid(&mut out.depth);
+        } else {
+            out.depth = DepthGrid::default();
+        }
     }
 
     /// The axes the next frame's are labelled against (the estimator's history).

@@ -60,7 +60,7 @@ pub use depth_alignment::{
     DepthAlignmentConfig, DepthAssociator, kinect_depth_sigma, self_information,
 };
 pub use depth_grid::DepthGrid;
-pub use frame::{FeatureError, FrameFeatures};
+pub use frame::{FeatureError, FrameFeatures, FrameSurfaces};
 pub use frontend::{DEPTH_GRID_STEP, Frontend, FrontendError, FrontendTimings, StructureExtractor};
 pub use keyframe_policy::{KeyframeContext, needs_keyframe};
 pub use manhattan::WorldManhattan;
