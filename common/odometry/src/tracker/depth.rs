@@ -1,6 +1,7 @@
 //! The depth term of tracking (`[tracking] use_depth_alignment`): the frame's depth
-//! aligned with the reference keyframe's (or the last frame's), point to plane, inside the pose optimisation; and the
-//! frame's status from what the combined constraints determine.
+//! aligned with the reference keyframe's (or the last frame's), point to plane, inside
+//! the pose optimisation; and the frame's status from what the combined constraints
+//! determine.
 
 use super::{TrackedFrame, Tracker};
 use crate::depth_grid::DepthGrid;
