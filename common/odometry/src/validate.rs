@@ -32,7 +32,7 @@ impl FrameFeatures {
 }
 
 impl TrackingConfig {
-    /// Checks `[tracking]` and its `points` / `lines` sub-tables.
+    /// Checks `[tracking]` and its `points` / `lines` / `depth` / `planes` sub-tables.
     ///
     /// # Errors
     /// [`FieldError`] naming the first field out of range.
@@ -94,7 +94,17 @@ impl TrackingConfig {
             self.depth.weak_sigma_m,
             self.depth.weak_sigma_m.is_finite() && self.depth.weak_sigma_m >= 0.0,
             "finite, >= 0",
-        )
+        )?;
+        let q = Table("tracking.planes");
+        q.within(
+            "max_normal_angle_deg",
+            self.planes.max_normal_angle_deg,
+            0.0,
+            90.0,
+        )?;
+        q.positive("max_offset_m", self.planes.max_offset_m)?;
+        q.positive("normal_sigma_deg", self.planes.normal_sigma_deg)?;
+        q.positive("offset_sigma_scale", self.planes.offset_sigma_scale)
     }
 }
 
@@ -164,6 +174,7 @@ fn validate_ba(ba: &BaConfig) -> Result<(), FieldError> {
         ("parallel_chi2", ba.parallel_chi2),
         ("perpendicular_chi2", ba.perpendicular_chi2),
         ("manhattan_chi2", ba.manhattan_chi2),
+        ("plane_chi2", ba.plane_chi2),
     ] {
         t.positive(name, value)?;
     }
