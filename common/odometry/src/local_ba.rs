@@ -144,19 +144,20 @@ impl LocalMapBa {
         for id in &self.point_ids {
             map.update_point_geometry(*id, self.scale.scale_factor, self.scale.levels);
         }
-        // The planes were held; they follow the refined poses of their observers.
-        for ((obs, inlier), id) in problem
+        for ((normal, offset), id) in problem.planes.iter().zip(&self.plane_ids) {
+            if let Some(plane) = map.plane_mut(*id) {
+                plane.normal = *normal;
+                plane.offset = *offset;
+            }
+        }
+        for (obs, inlier) in problem
             .plane_observations
             .iter()
             .zip(&inliers.plane_observations)
-            .zip(&self.plane_ids)
         {
             if !inlier {
-                map.unlink(*id, self.pose_ids[obs.pose]);
+                map.unlink(self.plane_ids[obs.plane], self.pose_ids[obs.pose]);
             }
-        }
-        for id in &self.plane_ids {
-            map.update_plane_geometry(*id);
         }
     }
 
@@ -266,17 +267,18 @@ impl LocalMapBa {
             }
         }
         self.add_structural_pairs(map, &mut problem);
-        self.add_plane_observations(map, &mut problem);
+        self.add_planes(map, &mut problem);
         if problem.poses.iter().all(|p| p.fixed) || problem.point_observations.is_empty() {
             return None;
         }
         Some(problem)
     }
 
-    /// Every plane observation of the problem's keyframes, against its map plane.
-    /// `plane_ids` is indexed like the observations.
-    fn add_plane_observations(&mut self, map: &Map, problem: &mut BaProblem) {
+    /// The map planes the problem's keyframes see, as variables, with every one of
+    /// those keyframes' observations of them. `plane_ids` is indexed like the planes.
+    fn add_planes(&mut self, map: &Map, problem: &mut BaProblem) {
         self.plane_ids.clear();
+        let mut plane_index: IdMap<MapPlaneId, usize> = IdMap::default();
         for (pose, kf) in self.pose_ids.iter().enumerate() {
             let Some(keyframe) = map.keyframe(*kf) else {
                 continue;
@@ -288,11 +290,19 @@ impl LocalMapBa {
                 let Some(plane) = map.plane(*id) else {
                     continue;
                 };
+                let index = *plane_index.entry(*id).or_insert_with(|| {
+                    problem.planes.push((plane.normal, plane.offset));
+                    self.plane_ids.push(*id);
+                    problem.planes.len() - 1
+                });
+                let observation = plane_observation(&self.planes, seen, plane);
                 problem.plane_observations.push(BaPlaneObservation {
                     pose,
-                    plane: plane_observation(&self.planes, seen, plane),
+                    plane: index,
+                    measured: observation.measured,
+                    inv_sigma2_normal: observation.inv_sigma2_normal,
+                    inv_sigma2_offset: observation.inv_sigma2_offset,
                 });
-                self.plane_ids.push(*id);
             }
         }
     }

@@ -10,7 +10,7 @@ use crate::residuals::{
     StereoPointReprojection,
 };
 use crate::robust::Huber;
-use nalgebra::{Isometry3, SMatrix, SVector, Vector3};
+use nalgebra::{Isometry3, SMatrix, SVector, Vector3, Vector4};
 
 /// The current values of all variables.
 #[derive(Clone, Debug, Default)]
@@ -18,6 +18,7 @@ pub(crate) struct Values {
     pub(crate) poses: Vec<Isometry3<f64>>,
     pub(crate) points: Vec<Vector3<f64>>,
     pub(crate) lines: Vec<[Vector3<f64>; 2]>,
+    pub(crate) planes: Vec<(Vector3<f64>, f64)>,
 }
 
 impl Values {
@@ -27,6 +28,7 @@ impl Values {
             .extend(problem.poses.iter().map(|p| p.camera_from_world));
         self.points.clone_from(&problem.points);
         self.lines.clone_from(&problem.lines);
+        self.planes.clone_from(&problem.planes);
     }
 }
 
@@ -79,6 +81,12 @@ pub(crate) struct Terms<'a> {
     perpendicular_huber: Huber,
     manhattan_huber: Huber,
     plane_huber: Huber,
+}
+
+/// Square roots of a plane observation's information per error row (normal x3, offset).
+fn plane_weights(o: &super::problem::BaPlaneObservation) -> Vector4<f64> {
+    let (wn, wd) = (o.inv_sigma2_normal.sqrt(), o.inv_sigma2_offset.sqrt());
+    Vector4::new(wn, wn, wn, wd)
 }
 
 /// Adds `J^T w J` and `J^T w e` of a residual of one variable to its blocks.
@@ -189,7 +197,9 @@ impl<'a> Terms<'a> {
 
     fn plane_chi2(&self, v: &Values, k: usize) -> Option<f64> {
         let o = &self.problem.plane_observations[k];
-        let s = o.plane.whitened_error(&v.poses[o.pose]).norm_squared();
+        let (n, d) = &v.planes[o.plane];
+        let e = o.measured.error(&v.poses[o.pose], n, *d);
+        let s = plane_weights(o).component_mul(&e).norm_squared();
         s.is_finite().then_some(s)
     }
 
@@ -418,22 +428,32 @@ impl<'a> Terms<'a> {
             if !flags.plane_observations[k] {
                 continue;
             }
-            let pose = &v.poses[o.pose];
-            let q = &o.plane;
-            let l = q
-                .measured
-                .linearize(pose, &q.normal_in_world, q.offset_in_world);
-            let e = q.whiten(l.error);
+            let (n, d) = &v.planes[o.plane];
+            let l = o.measured.linearize(&v.poses[o.pose], n, *d);
+            // Whitened rows: the normal's and the offset's weights differ.
+            let w_rows = plane_weights(o);
+            let e = w_rows.component_mul(&l.error);
+            let d_pose = SMatrix::<f64, 4, 6>::from_fn(|r, c| w_rows[r] * l.d_pose[(r, c)]);
+            let d_plane = SMatrix::<f64, 4, 3>::from_fn(|r, c| w_rows[r] * l.d_plane[(r, c)]);
             let s = e.norm_squared();
+            let w = self.plane_huber.weight(s);
             lin.cost += self.plane_huber.cost(s);
+            add_block(
+                &mut lin.h_plane[o.plane],
+                &mut lin.g_plane[o.plane],
+                &d_plane,
+                &e,
+                w,
+            );
             if !p.poses[o.pose].fixed {
                 add_block(
                     &mut lin.h_pose[o.pose],
                     &mut lin.g_pose[o.pose],
-                    &q.whitened_d_pose(&l.d_pose),
+                    &d_pose,
                     &e,
-                    self.plane_huber.weight(s),
+                    w,
                 );
+                lin.w_plane_obs[k] = d_pose.transpose() * w * d_plane;
             }
         }
     }
