@@ -14,6 +14,7 @@ struct RunResult {
     ate_rmse_m: f64,
     predicted: usize,
     relocalised: usize,
+    degraded: usize,
 }
 
 fn run(
@@ -45,6 +46,8 @@ fn run(
         config.tracking.use_manhattan,
     )
     .unwrap();
+    frontend.set_keep_depth(config.tracking.use_depth_alignment);
+    frontend.set_keep_planes(config.tracking.use_planes);
     let mut odometry = Odometry::new(
         config,
         camera,
@@ -53,7 +56,7 @@ fn run(
         &lines.grid,
     );
     let (mut estimate, mut truth) = (Trajectory::new(), Trajectory::new());
-    let (mut predicted, mut relocalised) = (0, 0);
+    let (mut predicted, mut relocalised, mut degraded) = (0, 0, 0);
     for i in 0..sequence.len() {
         let frame = sequence.render(i);
         let rotation = odometry.predicted_rotation();
@@ -69,6 +72,7 @@ fn run(
         let pose = odometry.process(features).unwrap();
         predicted += usize::from(pose.status == TrackingStatus::Predicted);
         relocalised += usize::from(pose.status == TrackingStatus::Relocalised);
+        degraded += usize::from(pose.status == TrackingStatus::Degraded);
         estimate.push(frame.timestamp, pose.world_from_camera);
         truth.push(frame.timestamp, frame.pose);
     }
@@ -78,9 +82,10 @@ fn run(
         ate_rmse_m: evaluation.ate.stats.rmse,
         predicted,
         relocalised,
+        degraded,
     };
     println!(
-        "{scene:?} {trajectory:?}: ATE {:.4} m, predicted {predicted}, relocalised {relocalised}",
+        "{scene:?} {trajectory:?}: ATE {:.4} m, predicted {predicted}, relocalised {relocalised}, degraded {degraded}",
         result.ate_rmse_m
     );
     result
@@ -148,4 +153,24 @@ fn low_texture_room_stays_within_a_centimetre() {
         OdometryConfig::default(),
     );
     assert!(r.ate_rmse_m <= 0.01, "ATE {} m", r.ate_rmse_m);
+}
+
+#[test]
+fn low_texture_room_with_depth_and_planes_is_tracked_within_4_mm() {
+    let mut config = OdometryConfig::default();
+    config.tracking.use_depth_alignment = true;
+    config.tracking.use_planes = true;
+    let r = run(
+        SceneKind::LowTexture,
+        TrajectoryKind::Slow,
+        120,
+        NoiseConfig::default(),
+        config,
+    );
+    assert_eq!(
+        r.predicted + r.relocalised + r.degraded,
+        0,
+        "every frame tracked"
+    );
+    assert!(r.ate_rmse_m <= 0.004, "ATE {} m", r.ate_rmse_m);
 }

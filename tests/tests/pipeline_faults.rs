@@ -12,7 +12,9 @@
 
 mod common;
 
-use common::{FRAMES, PoseWatch, STAGES, binaries, finish, out_dir, pid_of, run_id, start};
+use common::{
+    FRAMES, PoseWatch, STAGES, binaries, finish, out_dir, pid_of, run_id, sequence, start,
+};
 use gfs_synth::SplitMix64;
 use std::path::Path;
 use std::process::Child;
@@ -189,4 +191,31 @@ fn lockstep_threads_and_inline_give_the_same_trajectory() {
     assert_eq!(inline.lines().filter(|l| !l.starts_with('#')).count(), 80);
     assert_eq!(trajectory("lockstep"), inline);
     assert_eq!(trajectory("threads"), inline);
+}
+
+#[test]
+fn with_depth_and_planes_lockstep_and_inline_give_the_same_trajectory() {
+    // The planes and depth grid travel from the planes stage to the tracker in the
+    // pipeline; in-process the front end hands them over: the same poses either way.
+    let config = out_dir("surfaces_config.toml");
+    let camera = std::fs::read_to_string(sequence().join("synthetic.toml")).unwrap();
+    std::fs::write(
+        &config,
+        format!("{camera}\n[tracking]\nuse_depth_alignment = true\nuse_planes = true\n"),
+    )
+    .unwrap();
+    let config = config.to_str().unwrap().to_owned();
+    let trajectory = |mode: &str| {
+        let (id, out) = (
+            run_id(&format!("s{}", &mode[..3])),
+            out_dir(&format!("surfaces_{mode}")),
+        );
+        let args = ["--mode", mode, "--frames", "60", "--config", &config];
+        let o = finish(start(binaries(), &id, &out, &args), &out, &id);
+        assert!(o.success, "{mode}: {}", o.stderr);
+        std::fs::read_to_string(out.join("trajectory.txt")).unwrap()
+    };
+    let inline = trajectory("inline");
+    assert_eq!(inline.lines().filter(|l| !l.starts_with('#')).count(), 60);
+    assert_eq!(trajectory("lockstep"), inline);
 }

@@ -33,3 +33,7 @@ id_type!(
     /// Id of a map line; never reused.
     MapLineId
 );
+id_type!(
+    /// Id of a map plane; never reused.
+    MapPlaneId
+);

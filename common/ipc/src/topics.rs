@@ -40,6 +40,12 @@ pub const MANHATTAN: TopicSpec = TopicSpec {
     name: "manhattan",
     kind: TopicKind::Features,
 };
+/// `planes` -> `tracker`: the frame's BFS planes and depth grid (bincode), published only
+/// with `[tracking] use_planes` or `use_depth_alignment`.
+pub const SURFACES: TopicSpec = TopicSpec {
+    name: "surfaces",
+    kind: TopicKind::Features,
+};
 /// `tracker` -> recorder, `source` (lockstep pacing): the pose and status of frame k.
 pub const POSE: TopicSpec = TopicSpec {
     name: "pose",
@@ -57,7 +63,9 @@ pub const LOCAL_MAP: TopicSpec = TopicSpec {
 };
 
 /// Every topic of the pipeline.
-pub const ALL: [TopicSpec; 7] = [FRAME, POINTS, LINES, MANHATTAN, POSE, KEYFRAME, LOCAL_MAP];
+pub const ALL: [TopicSpec; 8] = [
+    FRAME, POINTS, LINES, MANHATTAN, SURFACES, POSE, KEYFRAME, LOCAL_MAP,
+];
 
 #[cfg(test)]
 mod tests {

@@ -1,7 +1,9 @@
 //! Parameters of the odometry: `[tracking]`, `[keyframes]`, `[mapping]` tables and the
 //! ablation switches.
 
+use crate::depth_alignment::DepthAlignmentConfig;
 use crate::matching::{LineMatchConfig, PointMatchConfig};
+use crate::plane_association::PlaneTrackingConfig;
 use gfs_optim::{BaConfig, PoseOptimizerConfig};
 use serde::Deserialize;
 
@@ -25,6 +27,19 @@ pub struct TrackingConfig {
     pub use_lines: bool,
     /// Use the Manhattan axes (ablation switch). Default true.
     pub use_manhattan: bool,
+    /// Align the frame's depth with the last frame's in the pose optimisation
+    /// (point-to-plane, `[tracking.depth]`), track on depth alone when the features
+    /// fail, and flag `degraded` from the pose's information instead of an inlier count
+    /// (ablation switch). Default false.
+    pub use_depth_alignment: bool,
+    /// Planes as landmarks: the frame's BFS planes associated with the map's planes
+    /// (plane-to-plane errors in the pose optimisation), and map planes created, fused
+    /// and culled with the keyframes (ablation switch). Default false.
+    pub use_planes: bool,
+    /// `[tracking.planes]`: plane association gates and weights.
+    pub planes: PlaneTrackingConfig,
+    /// `[tracking.depth]`: the depth alignment.
+    pub depth: DepthAlignmentConfig,
     /// Point matching thresholds.
     pub points: PointMatchConfig,
     /// Line matching thresholds.
@@ -64,6 +79,10 @@ impl Default for TrackingConfig {
         Self {
             use_lines: true,
             use_manhattan: true,
+            use_depth_alignment: false,
+            use_planes: false,
+            planes: PlaneTrackingConfig::default(),
+            depth: DepthAlignmentConfig::default(),
             points: PointMatchConfig::default(),
             lines: LineMatchConfig::default(),
             pose: PoseOptimizerConfig::default(),

@@ -1,8 +1,9 @@
 //! The tracker's input: everything the front-end stages extracted from one frame.
 
+use crate::depth_grid::DepthGrid;
 use gfs_core::ids::FrameId;
 use gfs_lines::{DetectedLine, Line3};
-use gfs_planes::ManhattanAxes;
+use gfs_planes::{ManhattanAxes, Plane};
 use gfs_points::KeyPoint;
 
 /// 256-bit binary descriptors (ORB rBRIEF and binary LBD share the layout) and their
@@ -30,9 +31,43 @@ pub struct FrameFeatures {
     pub lines3d: Vec<Line3>,
     /// Manhattan axes of the frame, in the camera frame, if the scene showed structure.
     pub manhattan: Option<ManhattanAxes>,
+    /// The frame's BFS planes, camera frame (empty unless `[tracking] use_planes`).
+    #[serde(default)]
+    pub planes: Vec<Plane>,
+    /// The frame's depth, sub-sampled points and normals (empty when the planes stage
+    /// did not run or does not deliver it).
+    #[serde(default)]
+    pub depth: DepthGrid,
+}
+
+/// The parts of [`FrameFeatures`] that only the depth and plane terms use: what the
+/// pipeline's planes stage sends beside the Manhattan axes when they are switched on.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FrameSurfaces {
+    /// The frame's BFS planes (empty unless `[tracking] use_planes`).
+    pub planes: Vec<Plane>,
+    /// The frame's depth grid (empty unless `[tracking] use_depth_alignment`).
+    pub depth: DepthGrid,
 }
 
 impl FrameFeatures {
+    /// A copy without the depth grid, which serves the tracker's next frame only (the
+    /// map's keyframes do not keep it).
+    pub fn without_depth(&self) -> Self {
+        Self {
+            id: self.id,
+            timestamp: self.timestamp,
+            keypoints: self.keypoints.clone(),
+            point_descriptors: self.point_descriptors.clone(),
+            lines: self.lines.clone(),
+            line_descriptors: self.line_descriptors.clone(),
+            lines3d: self.lines3d.clone(),
+            manhattan: self.manhattan,
+            planes: self.planes.clone(),
+            depth: DepthGrid::default(),
+        }
+    }
+
     /// Checks that the parallel vectors have matching lengths.
     ///
     /// # Errors

@@ -2,7 +2,8 @@
 //! frame, chained as the points / lines / planes services chain them in the pipeline.
 //! This is the `inline` mode's front end and the tests' way to make [`FrameFeatures`].
 
-use crate::frame::FrameFeatures;
+use crate::depth_grid::DepthGrid;
+use crate::frame::{FrameFeatures, FrameSurfaces};
 use gfs_core::ImageView;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::FrameId;
@@ -62,6 +63,31 @@ impl StructureExtractor {
         })
     }
 
+    /// The last frame's BFS planes.
+    pub fn planes(&self) -> &[Plane] {
+        &self.plane_out
+    }
+
+    /// The last frame's depth points and normals, every [`DEPTH_GRID_STEP`]-th node of
+    /// the normal grid, into `out`.
+    pub fn depth_grid(&self, out: &mut DepthGrid) {
+        out.sample(self.planes.normals(), DEPTH_GRID_STEP);
+    }
+
+    /// The last frame's planes and depth grid, each when asked for, into `out` (its
+    /// buffers reused).
+    pub fn surfaces(&self, planes: bool, depth: bool, out: &mut FrameSurfaces) {
+        out.planes.clear();
+        if planes {
+            out.planes.extend_from_slice(&self.plane_out);
+        }
+        if depth {
+            self.depth_grid(&mut out.depth);
+        } else {
+            out.depth = DepthGrid::default();
+        }
+    }
+
     /// The axes the next frame's are labelled against (the estimator's history).
     pub fn previous_axes(&self) -> Option<&Rotation3<f64>> {
         self.manhattan.previous()
@@ -103,11 +129,17 @@ impl StructureExtractor {
     }
 }
 
+/// Sub-sampling of the plane stage's normal grid (4 px) kept for the depth alignment:
+/// an 8 px grid.
+pub const DEPTH_GRID_STEP: usize = 2;
+
 /// Points, lines and planes extractors with their reusable scratch.
 pub struct Frontend {
     camera: PinholeCamera,
     use_lines: bool,
     use_manhattan: bool,
+    keep_depth: bool,
+    keep_planes: bool,
     orb: OrbExtractor,
     orb_out: OrbFeatures,
     lines: LineExtractor,
@@ -141,7 +173,22 @@ impl Frontend {
             camera,
             use_lines,
             use_manhattan,
+            keep_depth: false,
+            keep_planes: false,
         })
+    }
+
+    /// Whether the frames carry their depth grid ([`FrameFeatures::depth`], for
+    /// `[tracking] use_depth_alignment`; it needs the planes stage, `use_manhattan`).
+    /// Off by default: the grid is 115 kB a frame.
+    pub fn set_keep_depth(&mut self, keep: bool) {
+        self.keep_depth = keep;
+    }
+
+    /// Whether the frames carry their BFS planes ([`FrameFeatures::planes`], for
+    /// `[tracking] use_planes`; it needs the planes stage, `use_manhattan`).
+    pub fn set_keep_planes(&mut self, keep: bool) {
+        self.keep_planes = keep;
     }
 
     /// Stage timings of the last [`Self::extract`].
@@ -174,6 +221,8 @@ impl Frontend {
         }
         let lines_done = Instant::now();
         let mut manhattan = None;
+        let mut depth_grid = DepthGrid::default();
+        let mut planes = Vec::new();
         if self.use_manhattan {
             manhattan = self.structure.extract(
                 &depth,
@@ -181,6 +230,12 @@ impl Frontend {
                 &self.line_out.lines3d,
                 predicted_rotation,
             )?;
+            if self.keep_depth {
+                self.structure.depth_grid(&mut depth_grid);
+            }
+            if self.keep_planes {
+                planes.extend_from_slice(self.structure.planes());
+            }
         }
         self.timings = FrontendTimings {
             points: points_done - start,
@@ -196,6 +251,8 @@ impl Frontend {
             line_descriptors: self.line_out.descriptors.clone(),
             lines3d: self.line_out.lines3d.clone(),
             manhattan,
+            planes,
+            depth: depth_grid,
         })
     }
 }

@@ -5,6 +5,7 @@
 
 use crate::config::KeyframeConfig;
 use crate::map::Map;
+use crate::status::TrackingStatus;
 use crate::tracker::TrackedFrame;
 use gfs_core::ids::KeyFrameId;
 
@@ -88,8 +89,15 @@ pub fn needs_keyframe(
     let lines_low = reference_lines >= MIN_REFERENCE_LINES
         && (frame.inliers.lines as f32) < reference_lines as f32 * config.line_ratio;
     let timeout = frames_since_keyframe >= config.max_frames;
-    (points_low || lines_low || need_close || timeout)
-        && frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME
+    // A frame the depth alignment or the planes determined on their own may map its
+    // points too: that is how a low-texture view gets its first landmarks.
+    let on_depth_alone = (frame.inliers.depth > 0 || frame.inliers.planes > 0)
+        && frame.status == TrackingStatus::Tracked;
+    let posed = frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME || on_depth_alone;
+    // Tracked on depth with no map point in view: its close keypoints are the map's
+    // only chance to get points here.
+    let unmapped = on_depth_alone && frame.inliers.points == 0 && close_untracked > 0;
+    (points_low || lines_low || need_close || timeout || unmapped) && posed
 }
 
 #[cfg(test)]

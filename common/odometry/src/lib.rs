@@ -27,6 +27,8 @@
 #![warn(missing_docs)]
 
 mod config;
+mod depth_alignment;
+mod depth_grid;
 mod frame;
 mod frontend;
 mod keyframe_policy;
@@ -39,6 +41,8 @@ mod messages_check;
 mod motion;
 mod observation;
 mod odometry;
+mod plane_association;
+mod plane_mapping;
 mod pose_solver;
 mod ransac;
 mod relocalise;
@@ -52,14 +56,19 @@ mod tracker;
 mod validate;
 
 pub use config::{KeyframeConfig, MappingConfig, OdometryConfig, TrackingConfig};
-pub use frame::{FeatureError, FrameFeatures};
-pub use frontend::{Frontend, FrontendError, FrontendTimings, StructureExtractor};
+pub use depth_alignment::{
+    DepthAlignmentConfig, DepthAssociator, kinect_depth_sigma, self_information,
+};
+pub use depth_grid::DepthGrid;
+pub use frame::{FeatureError, FrameFeatures, FrameSurfaces};
+pub use frontend::{DEPTH_GRID_STEP, Frontend, FrontendError, FrontendTimings, StructureExtractor};
 pub use keyframe_policy::{KeyframeContext, needs_keyframe};
 pub use manhattan::WorldManhattan;
 pub use mapper::Mapper;
 pub use messages_check::MessageError;
 pub use motion::MotionModel;
 pub use odometry::{Odometry, OdometryTimings};
+pub use plane_association::{PlaneAssociator, PlaneTrackingConfig};
 pub use pose_solver::Inliers;
 pub use relocalise::{Relocalisation, relocalise};
 pub use session::FramePose;

@@ -9,11 +9,13 @@ use crate::manhattan::WorldManhattan;
 use crate::map::{IdMap, Map};
 use crate::matching::ScalePyramid;
 use crate::observation::{KeypointMeasurement, LINE_INV_SIGMA2, observed_line};
+use crate::plane_association::{PlaneTrackingConfig, plane_observation};
 use gfs_core::camera::PinholeCamera;
+use gfs_core::ids::MapPlaneId;
 use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
 use gfs_optim::{
-    BaLineObservation, BaLinePrior, BaManhattan, BaPointObservation, BaPose, BaProblem, BaResult,
-    LocalBundleAdjuster,
+    BaLineObservation, BaLinePrior, BaManhattan, BaPlaneObservation, BaPointObservation, BaPose,
+    BaProblem, BaResult, LocalBundleAdjuster,
 };
 use nalgebra::{Point3, Vector3};
 
@@ -31,11 +33,19 @@ pub struct LocalMapBa {
     pose_ids: Vec<KeyFrameId>,
     point_ids: Vec<MapPointId>,
     line_ids: Vec<MapLineId>,
+    planes: PlaneTrackingConfig,
+    plane_ids: Vec<MapPlaneId>,
 }
 
 impl LocalMapBa {
-    /// The local BA for `camera` whose keypoints come from the pyramid `scale`.
-    pub fn new(config: MappingConfig, camera: PinholeCamera, scale: ScalePyramid) -> Self {
+    /// The local BA for `camera` whose keypoints come from the pyramid `scale`; the
+    /// keyframes' plane observations (`[tracking] use_planes`) are weighed by `planes`.
+    pub fn new(
+        config: MappingConfig,
+        camera: PinholeCamera,
+        scale: ScalePyramid,
+        planes: PlaneTrackingConfig,
+    ) -> Self {
         Self {
             config,
             camera,
@@ -45,6 +55,8 @@ impl LocalMapBa {
             pose_ids: Vec::new(),
             point_ids: Vec::new(),
             line_ids: Vec::new(),
+            planes,
+            plane_ids: Vec::new(),
         }
     }
 
@@ -131,6 +143,21 @@ impl LocalMapBa {
         }
         for id in &self.point_ids {
             map.update_point_geometry(*id, self.scale.scale_factor, self.scale.levels);
+        }
+        for ((normal, offset), id) in problem.planes.iter().zip(&self.plane_ids) {
+            if let Some(plane) = map.plane_mut(*id) {
+                plane.normal = *normal;
+                plane.offset = *offset;
+            }
+        }
+        for (obs, inlier) in problem
+            .plane_observations
+            .iter()
+            .zip(&inliers.plane_observations)
+        {
+            if !inlier {
+                map.unlink(self.plane_ids[obs.plane], self.pose_ids[obs.pose]);
+            }
         }
     }
 
@@ -240,10 +267,44 @@ impl LocalMapBa {
             }
         }
         self.add_structural_pairs(map, &mut problem);
+        self.add_planes(map, &mut problem);
         if problem.poses.iter().all(|p| p.fixed) || problem.point_observations.is_empty() {
             return None;
         }
         Some(problem)
+    }
+
+    /// The map planes the problem's keyframes see, as variables, with every one of
+    /// those keyframes' observations of them. `plane_ids` is indexed like the planes.
+    fn add_planes(&mut self, map: &Map, problem: &mut BaProblem) {
+        self.plane_ids.clear();
+        let mut plane_index: IdMap<MapPlaneId, usize> = IdMap::default();
+        for (pose, kf) in self.pose_ids.iter().enumerate() {
+            let Some(keyframe) = map.keyframe(*kf) else {
+                continue;
+            };
+            for (i, id) in keyframe.plane_ids.iter().enumerate() {
+                let (Some(id), Some(seen)) = (id, keyframe.features.planes.get(i)) else {
+                    continue;
+                };
+                let Some(plane) = map.plane(*id) else {
+                    continue;
+                };
+                let index = *plane_index.entry(*id).or_insert_with(|| {
+                    problem.planes.push((plane.normal, plane.offset));
+                    self.plane_ids.push(*id);
+                    problem.planes.len() - 1
+                });
+                let observation = plane_observation(&self.planes, seen, plane);
+                problem.plane_observations.push(BaPlaneObservation {
+                    pose,
+                    plane: index,
+                    measured: observation.measured,
+                    inv_sigma2_normal: observation.inv_sigma2_normal,
+                    inv_sigma2_offset: observation.inv_sigma2_offset,
+                });
+            }
+        }
     }
 
     /// Keyframes outside the local set that see its landmarks, most shared first, are
@@ -366,7 +427,12 @@ mod tests {
     fn a_lone_keyframe_has_nothing_to_adjust() {
         let config = OdometryConfig::default();
         let (map, _, kf) = first_keyframe(&Scene::new(50, 4), &config);
-        let mut ba = LocalMapBa::new(config.mapping.clone(), camera(), scale());
+        let mut ba = LocalMapBa::new(
+            config.mapping.clone(),
+            camera(),
+            scale(),
+            PlaneTrackingConfig::default(),
+        );
         assert!(ba.assemble(&map, kf, &WorldManhattan::new(false)).is_none());
     }
 
@@ -383,7 +449,12 @@ mod tests {
         frame.point_ids = again.point_ids;
         frame.line_ids = again.line_ids;
         let kf = mapper.add_keyframe(&mut map, &frame, &mut WorldManhattan::new(false));
-        let mut ba = LocalMapBa::new(config.mapping.clone(), camera(), scale());
+        let mut ba = LocalMapBa::new(
+            config.mapping.clone(),
+            camera(),
+            scale(),
+            PlaneTrackingConfig::default(),
+        );
         let problem = ba
             .assemble(&map, kf, &WorldManhattan::new(false))
             .expect("two keyframes");

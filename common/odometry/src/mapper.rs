@@ -9,6 +9,8 @@ use crate::local_ba::LocalMapBa;
 use crate::manhattan::WorldManhattan;
 use crate::map::{KeyFrame, Map, MapLine, MapPoint};
 use crate::matching::ScalePyramid;
+use crate::plane_association::PlaneTrackingConfig;
+use crate::plane_mapping::map_planes;
 use crate::tracker::TrackedFrame;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{KeyFrameId, MapPointId};
@@ -48,16 +50,23 @@ pub struct Mapper {
     ba: LocalMapBa,
     grid: KeyPointGrid,
     nearby: Vec<usize>,
+    planes: PlaneTrackingConfig,
 }
 
 impl Mapper {
     /// A mapper for `camera` whose keypoints come from the pyramid `scale`.
     pub fn new(config: &OdometryConfig, camera: PinholeCamera, scale: ScalePyramid) -> Self {
         Self {
-            ba: LocalMapBa::new(config.mapping.clone(), camera, scale),
+            ba: LocalMapBa::new(
+                config.mapping.clone(),
+                camera,
+                scale,
+                config.tracking.planes.clone(),
+            ),
             recent_points: Vec::new(),
             grid: KeyPointGrid::new(camera.width, camera.height, FUSE_GRID_CELL_PX),
             nearby: Vec::new(),
+            planes: config.tracking.planes.clone(),
             config: config.mapping.clone(),
             keyframes: config.keyframes.clone(),
             camera,
@@ -99,9 +108,10 @@ impl Mapper {
         let keyframe = KeyFrame {
             id: map.next_keyframe_id(),
             camera_from_world: frame.camera_from_world,
-            features: frame.features.clone(),
+            features: frame.features.without_depth(),
             point_ids: frame.point_ids.clone(),
             line_ids: frame.line_ids.clone(),
+            plane_ids: frame.plane_ids.clone(),
         };
         let kf = map.insert_keyframe(keyframe);
         for id in frame.point_ids.iter().flatten() {
@@ -110,6 +120,14 @@ impl Mapper {
         }
         self.create_points(map, kf);
         self.create_lines(map, kf, manhattan);
+        // The frames carry planes only with `[tracking] use_planes`.
+        map_planes(
+            map,
+            kf,
+            &self.planes,
+            manhattan,
+            self.config.manhattan_angle_deg.to_radians(),
+        );
         self.cull_recent_points(map, kf);
         self.fuse(map, kf);
         if self.config.local_ba {

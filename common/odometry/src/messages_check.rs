@@ -107,6 +107,21 @@ impl TrackedFrame {
                 self.line_ids.len()
             ));
         }
+        let planes = self.features.planes.len();
+        if self.plane_ids.len() != planes {
+            return fail(format!(
+                "plane_ids has {} entries, expected {planes} (one per plane)",
+                self.plane_ids.len()
+            ));
+        }
+        if let Some(i) = self.features.planes.iter().position(|p| {
+            let n = nalgebra::Vector3::from(p.normal.map(f64::from));
+            !(p.offset.is_finite() && (n.norm() - 1.0).abs() < 1e-3)
+        }) {
+            return fail(format!(
+                "planes[{i}] has no unit normal or a non-finite offset"
+            ));
+        }
         if !finite_pose(&self.camera_from_world) {
             return fail("camera_from_world is not finite".to_owned());
         }

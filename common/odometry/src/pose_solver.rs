@@ -8,7 +8,8 @@ use crate::observation::{KeypointMeasurement, LINE_INV_SIGMA2, observed_line};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{MapLineId, MapPointId};
 use gfs_optim::{
-    LineObservation, PointObservation, PoseOptimizerConfig, PoseResult, optimize_pose,
+    DepthObservation, LineObservation, PlaneObservation, PointObservation, PoseOptimizerConfig,
+    PoseResult, SurfaceObservations, optimize_pose_with_depth,
 };
 use nalgebra::{Isometry3, Matrix6};
 
@@ -19,6 +20,12 @@ pub struct Inliers {
     pub points: usize,
     /// Map lines whose endpoint-to-line errors passed it.
     pub lines: usize,
+    /// Depth point-to-plane pairs that passed it (0 without the depth alignment).
+    #[serde(default)]
+    pub depth: usize,
+    /// Plane-to-plane observations that passed it (0 without `use_planes`).
+    #[serde(default)]
+    pub planes: usize,
 }
 
 impl Inliers {
@@ -38,6 +45,8 @@ pub struct PoseSolver {
     point_index: Vec<usize>,
     lines: Vec<LineObservation>,
     line_index: Vec<usize>,
+    depth: Vec<DepthObservation>,
+    planes: Vec<PlaneObservation>,
     result: PoseResult,
 }
 
@@ -52,8 +61,32 @@ impl PoseSolver {
             point_index: Vec::new(),
             lines: Vec::new(),
             line_index: Vec::new(),
+            depth: Vec::new(),
+            planes: Vec::new(),
             result: PoseResult::default(),
         }
+    }
+
+    /// The depth pairs the next [`Self::solve`] adds (none until set).
+    pub fn set_depth(&mut self, observations: &[DepthObservation]) {
+        self.depth.clear();
+        self.depth.extend_from_slice(observations);
+    }
+
+    /// The plane observations the next [`Self::solve`] adds (none until set).
+    pub fn set_planes(&mut self, observations: &[PlaneObservation]) {
+        self.planes.clear();
+        self.planes.extend_from_slice(observations);
+    }
+
+    /// Per plane observation of the last solve: inlier at its pose.
+    pub fn plane_inliers(&self) -> &[bool] {
+        &self.result.plane_inliers
+    }
+
+    /// Information matrix of the last solve's inliers (left perturbation `[rho; phi]`).
+    pub fn information(&self) -> &Matrix6<f64> {
+        &self.result.information
     }
 
     /// Optimises `camera_from_world` from the matches in `point_ids` / `line_ids`; the
@@ -104,14 +137,23 @@ impl PoseSolver {
             });
             self.line_index.push(j);
         }
-        if self.points.is_empty() && self.lines.is_empty() {
+        if self.points.is_empty()
+            && self.lines.is_empty()
+            && self.depth.is_empty()
+            && self.planes.is_empty()
+        {
+            self.result.information = Matrix6::zeros();
             return Inliers::default();
         }
-        optimize_pose(
+        optimize_pose_with_depth(
             &self.camera,
             camera_from_world,
             &self.points,
             &self.lines,
+            SurfaceObservations {
+                depth: &self.depth,
+                planes: &self.planes,
+            },
             &self.config,
             &mut self.result,
         );
@@ -129,6 +171,8 @@ impl PoseSolver {
         Inliers {
             points: self.result.num_point_inliers,
             lines: self.result.num_line_inliers,
+            depth: self.result.num_depth_inliers,
+            planes: self.result.num_plane_inliers,
         }
     }
 
@@ -168,7 +212,7 @@ mod tests {
         assert!(error.translation.vector.norm() < 1e-6, "{error}");
         assert!(error.rotation.angle() < 1e-6);
         assert_eq!(point_ids[0], None, "the outlier is unlinked");
-        assert_eq!((inliers.points, inliers.lines), (149, 10));
+        assert_eq!((inliers.points, inliers.lines, inliers.depth), (149, 10, 0));
         assert_eq!(inliers.total(), 159);
     }
 

@@ -3,6 +3,7 @@
 //! test can script what every frame sees.
 
 use crate::config::OdometryConfig;
+use crate::depth_grid::DepthGrid;
 use crate::frame::{Descriptor, FrameFeatures};
 use crate::manhattan::WorldManhattan;
 use crate::map::{KeyFrame, Map};
@@ -15,11 +16,74 @@ use gfs_core::ids::{FrameId, KeyFrameId};
 use gfs_core::rng::SplitMix64;
 use gfs_lines::{DetectedLine, Line3, Segment};
 use gfs_points::KeyPoint;
-use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 
 /// The camera of the fixtures (TUM-like, 640x480).
 pub fn camera() -> PinholeCamera {
     PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480)
+}
+
+/// Three planes `n . x = d` (world frame) meeting in a corner: a floor (y = 1) and two
+/// walls (x = 1.2, z = 4), seen from near the origin looking along +z.
+pub const CORNER: [([f64; 3], f64); 3] = [
+    ([0.0, 1.0, 0.0], 1.0),
+    ([1.0, 0.0, 0.0], 1.2),
+    ([0.0, 0.0, 1.0], 4.0),
+];
+
+/// The exact depth grid (8 px) of the planes `n . x = d` seen from `camera_from_world`,
+/// the nearest plane along each node's ray, normals towards the camera.
+pub fn planes_depth(
+    camera: &PinholeCamera,
+    camera_from_world: &Isometry3<f64>,
+    planes: &[([f64; 3], f64)],
+) -> DepthGrid {
+    let stride = 8u32;
+    let (w, h) = (camera.width as u32 / stride, camera.height as u32 / stride);
+    let mut grid = DepthGrid {
+        stride_px: stride,
+        width: w,
+        height: h,
+        ..DepthGrid::default()
+    };
+    let world_from_camera = camera_from_world.inverse();
+    let centre = world_from_camera.translation.vector;
+    for j in 0..h {
+        for i in 0..w {
+            let (u, v) = (
+                f64::from(i * stride + stride / 2),
+                f64::from(j * stride + stride / 2),
+            );
+            let ray_c = Vector3::new(
+                (u - camera.cx) / camera.fx,
+                (v - camera.cy) / camera.fy,
+                1.0,
+            );
+            let ray = world_from_camera.rotation * ray_c;
+            let hit = planes
+                .iter()
+                .filter_map(|(n, d)| {
+                    let n = Vector3::from(*n);
+                    let t = (d - n.dot(&centre)) / n.dot(&ray);
+                    (t > 0.0 && t.is_finite()).then_some((t, n))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            let (point, normal) = match hit {
+                Some((t, n)) => {
+                    let p_c = ray_c * t;
+                    let mut n_c = camera_from_world.rotation * n;
+                    if n_c.dot(&p_c) > 0.0 {
+                        n_c = -n_c;
+                    }
+                    (p_c.cast::<f32>().into(), n_c.cast::<f32>().into())
+                }
+                None => ([0.0; 3], [0.0; 3]),
+            };
+            grid.points.push(point);
+            grid.normals.push(normal);
+        }
+    }
+    grid
 }
 
 /// The ORB pyramid of the fixtures (8 levels, 1.2 apart).
@@ -138,6 +202,8 @@ impl Scene {
             lines,
             lines3d,
             manhattan: None,
+            planes: Vec::new(),
+            depth: Default::default(),
         }
     }
 }
@@ -186,7 +252,49 @@ pub fn relinked(keyframe: &KeyFrame) -> TrackedFrame {
     let mut frame = tracked(keyframe.features.clone(), keyframe.camera_from_world);
     frame.point_ids = keyframe.point_ids.clone();
     frame.line_ids = keyframe.line_ids.clone();
+    frame.plane_ids = keyframe.plane_ids.clone();
     frame.inliers.points = frame.point_ids.iter().flatten().count();
     frame.inliers.lines = frame.line_ids.iter().flatten().count();
     frame
+}
+
+/// The BFS planes a frame at `camera_from_world` would give of the planes `n . x = d`
+/// (normals towards the camera, centroids on the plane 2 m ahead), exact.
+pub fn planes_of(
+    camera_from_world: &Isometry3<f64>,
+    planes: &[([f64; 3], f64)],
+) -> Vec<gfs_planes::Plane> {
+    planes
+        .iter()
+        .map(|(n, d)| {
+            let mut n_c = camera_from_world.rotation * Vector3::from(*n);
+            let mut offset = -d - n_c.dot(&camera_from_world.translation.vector);
+            if offset < 0.0 {
+                n_c = -n_c;
+                offset = -offset;
+            }
+            let ahead = Vector3::new(0.0, 0.0, 2.0);
+            let centroid = ahead - (n_c.dot(&ahead) + offset) * n_c;
+            gfs_planes::Plane {
+                normal: n_c.cast::<f32>().into(),
+                offset: offset as f32,
+                pixels: 20_000,
+                centroid: centroid.cast::<f32>().into(),
+            }
+        })
+        .collect()
+}
+
+/// A map started by the mapper from a frame at the identity that sees only the planes
+/// `n . x = d` (no point, no line): one keyframe, one map plane per plane.
+pub fn plane_map(planes: &[([f64; 3], f64)]) -> (Map, KeyFrameId) {
+    let mut map = Map::default();
+    let mut mapper = Mapper::new(&OdometryConfig::default(), camera(), scale());
+    let features = FrameFeatures {
+        planes: planes_of(&Isometry3::identity(), planes),
+        ..FrameFeatures::default()
+    };
+    let frame = tracked(features, Isometry3::identity());
+    let kf = mapper.add_keyframe(&mut map, &frame, &mut WorldManhattan::new(false));
+    (map, kf)
 }

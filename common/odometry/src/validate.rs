@@ -32,7 +32,7 @@ impl FrameFeatures {
 }
 
 impl TrackingConfig {
-    /// Checks `[tracking]` and its `points` / `lines` sub-tables.
+    /// Checks `[tracking]` and its `points` / `lines` / `depth` / `planes` sub-tables.
     ///
     /// # Errors
     /// [`FieldError`] naming the first field out of range.
@@ -67,7 +67,44 @@ impl TrackingConfig {
         )?;
         l.fraction("ratio", self.lines.ratio.into())?;
         l.within("max_angle_deg", self.lines.max_angle_deg.into(), 0.0, 90.0)?;
-        l.positive("max_offset_px", self.lines.max_offset_px.into())
+        l.positive("max_offset_px", self.lines.max_offset_px.into())?;
+        let d = Table("tracking.depth");
+        d.at_least("source_step", self.depth.source_step as u64, 1)?;
+        d.require(
+            "max_distance_m",
+            format!("{:?}", self.depth.max_distance_m),
+            !self.depth.max_distance_m.is_empty()
+                && self
+                    .depth
+                    .max_distance_m
+                    .iter()
+                    .all(|g| *g > 0.0 && g.is_finite()),
+            "one or more positive distances",
+        )?;
+        d.within(
+            "max_normal_angle_deg",
+            self.depth.max_normal_angle_deg,
+            0.0,
+            90.0,
+        )?;
+        d.positive("lever_arm_m", self.depth.lever_arm_m)?;
+        d.positive("max_sigma_m", self.depth.max_sigma_m)?;
+        d.require(
+            "weak_sigma_m",
+            self.depth.weak_sigma_m,
+            self.depth.weak_sigma_m.is_finite() && self.depth.weak_sigma_m >= 0.0,
+            "finite, >= 0",
+        )?;
+        let q = Table("tracking.planes");
+        q.within(
+            "max_normal_angle_deg",
+            self.planes.max_normal_angle_deg,
+            0.0,
+            90.0,
+        )?;
+        q.positive("max_offset_m", self.planes.max_offset_m)?;
+        q.positive("normal_sigma_deg", self.planes.normal_sigma_deg)?;
+        q.positive("offset_sigma_scale", self.planes.offset_sigma_scale)
     }
 }
 
@@ -137,6 +174,7 @@ fn validate_ba(ba: &BaConfig) -> Result<(), FieldError> {
         ("parallel_chi2", ba.parallel_chi2),
         ("perpendicular_chi2", ba.perpendicular_chi2),
         ("manhattan_chi2", ba.manhattan_chi2),
+        ("plane_chi2", ba.plane_chi2),
     ] {
         t.positive(name, value)?;
     }
@@ -178,5 +216,17 @@ mod tests {
         let mut c = OdometryConfig::default();
         c.tracking.lines.ratio = 1.5;
         assert_eq!(c.validate().unwrap_err().field, "tracking.lines.ratio");
+        let mut c = OdometryConfig::default();
+        c.tracking.depth.max_distance_m.clear();
+        assert_eq!(
+            c.validate().unwrap_err().field,
+            "tracking.depth.max_distance_m"
+        );
+        let mut c = OdometryConfig::default();
+        c.tracking.depth.weak_sigma_m = -1.0;
+        assert_eq!(
+            c.validate().unwrap_err().field,
+            "tracking.depth.weak_sigma_m"
+        );
     }
 }

@@ -57,6 +57,7 @@
 #![warn(missing_docs)]
 
 mod ba;
+mod degeneracy;
 mod lm;
 mod pose;
 mod pose_graph;
@@ -64,10 +65,14 @@ pub mod residuals;
 pub mod robust;
 
 pub use ba::{
-    BaConfig, BaError, BaFlags, BaLineObservation, BaLinePrior, BaManhattan, BaPointObservation,
-    BaPose, BaProblem, BaResult, LocalBundleAdjuster, ONE_DEGREE_INFORMATION,
+    BaConfig, BaError, BaFlags, BaLineObservation, BaLinePrior, BaManhattan, BaPlaneObservation,
+    BaPointObservation, BaPose, BaProblem, BaResult, LocalBundleAdjuster, ONE_DEGREE_INFORMATION,
 };
-pub use pose::{LineObservation, PointObservation, PoseOptimizerConfig, PoseResult, optimize_pose};
+pub use degeneracy::{PoseConstraint, analyse_constraint};
+pub use pose::{
+    DepthObservation, LineObservation, PlaneObservation, PointObservation, PoseOptimizerConfig,
+    PoseResult, SurfaceObservations, optimize_pose, optimize_pose_with_depth,
+};
 pub use pose_graph::{
     CHI2_6DOF_95, PoseGraph, PoseGraphConfig, PoseGraphError, PoseGraphKernel, PoseGraphReport,
 };

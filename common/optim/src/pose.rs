@@ -6,11 +6,13 @@
 //! end of each round, the kernel dropped after the second round).
 
 use crate::lm::Damping;
-use crate::residuals::{LineReprojection, PointReprojection, StereoPointReprojection};
-use crate::robust::{CHI2_2DOF_95, CHI2_3DOF_95, DEFAULT_RGBD_BF, Huber};
+use crate::residuals::{
+    LineReprojection, PlaneToPlane, PointReprojection, PointToPlane, StereoPointReprojection,
+};
+use crate::robust::{CHI2_1DOF_95, CHI2_2DOF_95, CHI2_3DOF_95, DEFAULT_RGBD_BF, Huber};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::se3::retract;
-use nalgebra::{Isometry3, Matrix6, SMatrix, SVector, Vector2, Vector3, Vector6};
+use nalgebra::{Isometry3, Matrix6, SMatrix, SVector, Vector2, Vector3, Vector4, Vector6};
 use serde::Deserialize;
 
 /// A map point matched to a keypoint of the frame.
@@ -40,6 +42,73 @@ pub struct LineObservation {
     pub inv_sigma2: f64,
 }
 
+/// A depth point of the frame associated with a reference surface element (projective
+/// point-to-plane alignment, see [`PointToPlane`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthObservation {
+    /// The frame's depth point, camera frame, metres.
+    pub point_in_camera: Vector3<f64>,
+    /// The reference surface point, world frame, metres (held fixed).
+    pub surface_in_world: Vector3<f64>,
+    /// The reference surface's unit normal, world frame.
+    pub normal_in_world: Vector3<f64>,
+    /// Information of the point-to-plane distance, 1/m^2 (the depth noise of both ends).
+    pub inv_sigma2: f64,
+}
+
+/// A plane of the frame associated with a map plane (see [`PlaneToPlane`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlaneObservation {
+    /// The map plane's unit normal, world frame (held fixed).
+    pub normal_in_world: Vector3<f64>,
+    /// The map plane's offset, metres (`n_w . p + d_w = 0`, held fixed).
+    pub offset_in_world: f64,
+    /// The frame's measurement of it, camera frame.
+    pub measured: PlaneToPlane,
+    /// Information of the normal's difference, 1/rad^2.
+    pub inv_sigma2_normal: f64,
+    /// Information of the offset's difference, 1/m^2.
+    pub inv_sigma2_offset: f64,
+}
+
+impl PlaneObservation {
+    /// The pose Jacobian of the whitened error.
+    pub fn whitened_d_pose(&self, d_pose: &SMatrix<f64, 4, 6>) -> SMatrix<f64, 4, 6> {
+        let mut j = *d_pose;
+        j.fixed_rows_mut::<3>(0)
+            .scale_mut(self.inv_sigma2_normal.sqrt());
+        j.row_mut(3).scale_mut(self.inv_sigma2_offset.sqrt());
+        j
+    }
+
+    /// The whitened error (each row times the square root of its information).
+    pub fn whitened_error(&self, pose: &Isometry3<f64>) -> Vector4<f64> {
+        let e = self
+            .measured
+            .error(pose, &self.normal_in_world, self.offset_in_world);
+        self.whiten(e)
+    }
+
+    /// Each row of an error (or a Jacobian column) times the square root of its
+    /// information.
+    pub fn whiten(&self, mut e: Vector4<f64>) -> Vector4<f64> {
+        let (wn, wd) = (self.inv_sigma2_normal.sqrt(), self.inv_sigma2_offset.sqrt());
+        e.fixed_rows_mut::<3>(0).scale_mut(wn);
+        e[3] *= wd;
+        e
+    }
+}
+
+/// The dense geometry terms of a pose optimisation besides points and lines: depth
+/// point-to-plane pairs and plane-to-plane observations.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SurfaceObservations<'a> {
+    /// Depth points paired with reference surface elements.
+    pub depth: &'a [DepthObservation],
+    /// Frame planes associated with map planes.
+    pub planes: &'a [PlaneObservation],
+}
+
 /// Parameters of [`optimize_pose`] (the odometry's TOML table `[tracking.pose]`).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -63,6 +132,12 @@ pub struct PoseOptimizerConfig {
     /// Chi-square threshold of a line observation; default 5.991: its two endpoint
     /// distances are two pixel errors of the same sigma, 2 dof at 95 % as for points.
     pub line_chi2: f64,
+    /// Chi-square threshold (and Huber `sqrt`) of a depth point-to-plane distance;
+    /// default 3.841 (1 dof, 95 %).
+    pub depth_chi2: f64,
+    /// Chi-square threshold (and Huber `sqrt`) of a whitened plane-to-plane error;
+    /// default 7.815 (3 dof, 95 %: two of the normal, one of the offset).
+    pub plane_chi2: f64,
 }
 
 impl Default for PoseOptimizerConfig {
@@ -75,6 +150,8 @@ impl Default for PoseOptimizerConfig {
             point_depth_chi2: CHI2_3DOF_95,
             bf: DEFAULT_RGBD_BF,
             line_chi2: CHI2_2DOF_95,
+            depth_chi2: CHI2_1DOF_95,
+            plane_chi2: CHI2_3DOF_95,
         }
     }
 }
@@ -92,6 +169,17 @@ pub struct PoseResult {
     pub num_point_inliers: usize,
     /// Number of `true` in `line_inliers`.
     pub num_line_inliers: usize,
+    /// Per depth observation (same order as the input): inlier at the final pose.
+    pub depth_inliers: Vec<bool>,
+    /// Number of `true` in `depth_inliers`.
+    pub num_depth_inliers: usize,
+    /// Per plane observation (same order as the input): inlier at the final pose.
+    pub plane_inliers: Vec<bool>,
+    /// Number of `true` in `plane_inliers`.
+    pub num_plane_inliers: usize,
+    /// Information matrix `J^T Omega J` of the inliers at the final pose (no kernel),
+    /// in the left perturbation `[rho; phi]`: which directions the data constrain.
+    pub information: Matrix6<f64>,
     /// RMS of the inliers' residual components (point u / v / disparity errors, line
     /// endpoint distances), pixels, unweighted; 0 without inliers.
     pub rms_error_px: f64,
@@ -107,6 +195,24 @@ pub struct PoseResult {
     /// perturbation `exp(delta) * camera_from_world`, `delta` = (translation, rotation)
     /// in the camera frame. `None` when not converged or the information is singular.
     pub covariance: Option<Matrix6<f64>>,
+}
+
+impl PoseResult {
+    /// Inliers of every kind.
+    pub fn inlier_count(&self) -> usize {
+        self.num_point_inliers
+            + self.num_line_inliers
+            + self.num_depth_inliers
+            + self.num_plane_inliers
+    }
+}
+
+/// Point-to-plane distance of a depth observation at `pose`, metres.
+fn depth_error(pose: &Isometry3<f64>, obs: &DepthObservation) -> f64 {
+    PointToPlane {
+        point_in_camera: obs.point_in_camera,
+    }
+    .error(pose, &obs.surface_in_world, &obs.normal_in_world)
 }
 
 /// Relative cost decrease below which LM has converged.
@@ -128,10 +234,38 @@ pub fn optimize_pose(
     config: &PoseOptimizerConfig,
     result: &mut PoseResult,
 ) {
+    optimize_pose_with_depth(
+        camera,
+        initial_camera_from_world,
+        points,
+        lines,
+        SurfaceObservations::default(),
+        config,
+        result,
+    );
+}
+
+/// [`optimize_pose`] with depth point-to-plane and plane-to-plane observations as
+/// further residual blocks, robustified and outlier-rejected like the others
+/// (`depth_chi2`, `plane_chi2`).
+pub fn optimize_pose_with_depth(
+    camera: &PinholeCamera,
+    initial_camera_from_world: &Isometry3<f64>,
+    points: &[PointObservation],
+    lines: &[LineObservation],
+    surfaces: SurfaceObservations<'_>,
+    config: &PoseOptimizerConfig,
+    result: &mut PoseResult,
+) {
+    let SurfaceObservations { depth, planes } = surfaces;
     let problem = PoseProblem {
         camera,
         points,
         lines,
+        depth,
+        planes,
+        plane_huber: Huber::from_chi2(config.plane_chi2),
+        depth_huber: Huber::from_chi2(config.depth_chi2),
         point_huber: Huber::from_chi2(config.point_chi2),
         point_depth_huber: Huber::from_chi2(config.point_depth_chi2),
         bf: config.bf,
@@ -142,6 +276,10 @@ pub fn optimize_pose(
     result.point_inliers.resize(points.len(), true);
     result.line_inliers.clear();
     result.line_inliers.resize(lines.len(), true);
+    result.depth_inliers.clear();
+    result.depth_inliers.resize(depth.len(), true);
+    result.plane_inliers.clear();
+    result.plane_inliers.resize(planes.len(), true);
     result.iterations = 0;
     result.converged = false;
     // Every observation that can be evaluated starts as an inlier (ORB-SLAM2).
@@ -149,15 +287,19 @@ pub fn optimize_pose(
         point: f64::INFINITY,
         point_depth: f64::INFINITY,
         line: f64::INFINITY,
+        depth: f64::INFINITY,
+        plane: f64::INFINITY,
     };
     problem.classify(&pose, &unbounded, result);
     let thresholds = Thresholds {
         point: config.point_chi2,
         point_depth: config.point_depth_chi2,
         line: config.line_chi2,
+        depth: config.depth_chi2,
+        plane: config.plane_chi2,
     };
     for round in 0..config.rounds {
-        if result.num_point_inliers + result.num_line_inliers == 0 {
+        if result.inlier_count() == 0 {
             break;
         }
         let robust = round < config.robust_rounds;
@@ -168,8 +310,9 @@ pub fn optimize_pose(
         result.converged = converged;
         problem.classify(&pose, &thresholds, result);
     }
-    result.converged &= result.num_point_inliers + result.num_line_inliers > 0;
+    result.converged &= result.inlier_count() > 0;
     result.camera_from_world = pose;
+    result.information = problem.linearize(&pose, result, false).h;
     result.rms_error_px = problem.inlier_rms(&pose, result);
     result.covariance = if result.converged {
         let information = problem.linearize(&pose, result, false).h;
@@ -184,6 +327,10 @@ struct PoseProblem<'a> {
     camera: &'a PinholeCamera,
     points: &'a [PointObservation],
     lines: &'a [LineObservation],
+    depth: &'a [DepthObservation],
+    planes: &'a [PlaneObservation],
+    plane_huber: Huber,
+    depth_huber: Huber,
     point_huber: Huber,
     point_depth_huber: Huber,
     bf: f64,
@@ -195,6 +342,8 @@ struct Thresholds {
     point: f64,
     point_depth: f64,
     line: f64,
+    depth: f64,
+    plane: f64,
 }
 
 /// The normal equations of one linearisation.
@@ -271,6 +420,16 @@ impl PoseProblem<'_> {
                     .line_error(pose, obs)
                     .is_some_and(|e| obs.inv_sigma2 * e.norm_squared() <= thresholds.line);
         }
+        for (flag, obs) in result.depth_inliers.iter_mut().zip(self.depth) {
+            let e = depth_error(pose, obs);
+            *flag = obs.inv_sigma2 > 0.0 && obs.inv_sigma2 * e * e <= thresholds.depth;
+        }
+        for (flag, obs) in result.plane_inliers.iter_mut().zip(self.planes) {
+            let s = obs.whitened_error(pose).norm_squared();
+            *flag = s.is_finite() && s <= thresholds.plane;
+        }
+        result.num_plane_inliers = result.plane_inliers.iter().filter(|&&f| f).count();
+        result.num_depth_inliers = result.depth_inliers.iter().filter(|&&f| f).count();
         result.num_point_inliers = result.point_inliers.iter().filter(|&&f| f).count();
         result.num_line_inliers = result.line_inliers.iter().filter(|&&f| f).count();
     }
@@ -309,6 +468,25 @@ impl PoseProblem<'_> {
         {
             let s = obs.inv_sigma2 * self.line_error(pose, obs)?.norm_squared();
             cost += if robust { self.line_huber.cost(s) } else { s };
+        }
+        for (obs, _) in self
+            .depth
+            .iter()
+            .zip(&result.depth_inliers)
+            .filter(|(_, f)| **f)
+        {
+            let e = depth_error(pose, obs);
+            let s = obs.inv_sigma2 * e * e;
+            cost += if robust { self.depth_huber.cost(s) } else { s };
+        }
+        for (obs, _) in self
+            .planes
+            .iter()
+            .zip(&result.plane_inliers)
+            .filter(|(_, f)| **f)
+        {
+            let s = obs.whitened_error(pose).norm_squared();
+            cost += if robust { self.plane_huber.cost(s) } else { s };
         }
         cost.is_finite().then_some(cost)
     }
@@ -355,6 +533,40 @@ impl PoseProblem<'_> {
                     robust.then_some(&self.line_huber),
                 );
             }
+        }
+        for (obs, _) in self
+            .depth
+            .iter()
+            .zip(&result.depth_inliers)
+            .filter(|(_, f)| **f)
+        {
+            let l = PointToPlane {
+                point_in_camera: obs.point_in_camera,
+            }
+            .linearize(pose, &obs.surface_in_world, &obs.normal_in_world);
+            n.add(
+                &l.d_pose,
+                &nalgebra::Vector1::new(l.error),
+                obs.inv_sigma2,
+                robust.then_some(&self.depth_huber),
+            );
+        }
+        for (obs, _) in self
+            .planes
+            .iter()
+            .zip(&result.plane_inliers)
+            .filter(|(_, f)| **f)
+        {
+            let l = obs
+                .measured
+                .linearize(pose, &obs.normal_in_world, obs.offset_in_world);
+            let j = obs.whitened_d_pose(&l.d_pose);
+            n.add(
+                &j,
+                &obs.whiten(l.error),
+                1.0,
+                robust.then_some(&self.plane_huber),
+            );
         }
         n
     }
@@ -459,5 +671,57 @@ mod tests {
             (2, 7.0, 10)
         );
         assert!(toml::from_str::<PoseOptimizerConfig>("round = 2").is_err());
+    }
+
+    #[test]
+    fn depth_on_three_planes_alone_finds_the_pose_and_its_information_is_full() {
+        // A floor (y = 1) and two walls (x = 2, z = 4) seen by depth only, 1 mm sigma;
+        // one wall point is 20 cm off its plane (an outlier).
+        let truth = gfs_core::se3::exp(&Vector6::new(0.1, -0.05, 0.2, 0.05, -0.1, 0.02));
+        let mut depth = Vec::new();
+        for i in 0..8 {
+            for j in 0..8 {
+                let (a, b) = (-1.5 + 0.4 * i as f64, 0.5 + 0.4 * j as f64);
+                for (s, n) in [
+                    (Vector3::new(a, 1.0, b), Vector3::new(0.0, -1.0, 0.0)),
+                    (Vector3::new(2.0, a * 0.5, b), Vector3::new(-1.0, 0.0, 0.0)),
+                    (
+                        Vector3::new(a, a * 0.3 + b * 0.2, 4.0),
+                        Vector3::new(0.0, 0.0, -1.0),
+                    ),
+                ] {
+                    depth.push(DepthObservation {
+                        point_in_camera: (truth * nalgebra::Point3::from(s)).coords,
+                        surface_in_world: s,
+                        normal_in_world: n,
+                        inv_sigma2: 1e6,
+                    });
+                }
+            }
+        }
+        depth[1].point_in_camera += truth.rotation * Vector3::new(-0.2, 0.0, 0.0);
+        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let start = retract(&truth, &Vector6::new(0.03, -0.02, 0.02, 0.02, -0.03, 0.01));
+        let mut result = PoseResult::default();
+        let config = PoseOptimizerConfig::default();
+        optimize_pose_with_depth(
+            &camera,
+            &start,
+            &[],
+            &[],
+            SurfaceObservations {
+                depth: &depth,
+                planes: &[],
+            },
+            &config,
+            &mut result,
+        );
+        let error = result.camera_from_world * truth.inverse();
+        assert!(result.converged);
+        assert!(error.translation.vector.norm() < 1e-6, "{error}");
+        assert!(error.rotation.angle() < 1e-6);
+        assert!(!result.depth_inliers[1] && result.num_depth_inliers == depth.len() - 1);
+        let constraint = crate::analyse_constraint(&result.information, 2.0, 0.001);
+        assert!(constraint.is_determined(), "{constraint:?}");
     }
 }

@@ -47,6 +47,7 @@ fn request() -> KeyFrameRequest {
             status: TrackingStatus::Tracked,
             point_ids: vec![None; n],
             line_ids: Vec::new(),
+            plane_ids: Vec::new(),
             inliers: Default::default(),
         },
         manhattan: WorldManhattan::new(true),

@@ -60,6 +60,8 @@ fn features(rng: &mut SplitMix64, id: u64) -> FrameFeatures {
             })
             .collect(),
         manhattan: None,
+        planes: Vec::new(),
+        depth: Default::default(),
     }
 }
 
@@ -84,6 +86,7 @@ fn request(rng: &mut SplitMix64, seq: u64) -> KeyFrameRequest {
             status: TrackingStatus::Tracked,
             point_ids,
             line_ids,
+            plane_ids: Vec::new(),
             inliers: Default::default(),
         },
         manhattan: WorldManhattan::new(true),

@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 /// A plane seen in one frame, in the camera frame: `normal . p + offset = 0` for its
 /// points `p`. Plain data so it can travel in a zero-copy message.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Plane {
     /// Unit normal (camera frame), pointing towards the camera: the normalised mean of
     /// the region's pixel normals.

@@ -1,7 +1,7 @@
 //! A keyframe: a frame kept in the map with its pose, features and landmark links.
 
 use crate::frame::FrameFeatures;
-use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
+use gfs_core::ids::{KeyFrameId, MapLineId, MapPlaneId, MapPointId};
 use nalgebra::Isometry3;
 
 /// A frame kept in the map.
@@ -18,6 +18,9 @@ pub struct KeyFrame {
     pub point_ids: Vec<Option<MapPointId>>,
     /// For each line, the map line it observes.
     pub line_ids: Vec<Option<MapLineId>>,
+    /// For each plane of the frame, the map plane it observes.
+    #[serde(default)]
+    pub plane_ids: Vec<Option<MapPlaneId>>,
 }
 
 impl KeyFrame {

@@ -1,11 +1,11 @@
-//! What the map needs of every landmark kind (points, lines, and later planes), so that
+//! What the map needs of every landmark kind (points, lines, planes), so that
 //! linking, unlinking, removal and merging are written once: a landmark lists the
 //! keyframe features that observe it, and each keyframe has one slot per feature of
 //! that kind pointing back at it.
 
 use super::{IdMap, KeyFrame};
 use crate::frame::Descriptor;
-use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
+use gfs_core::ids::{KeyFrameId, MapLineId, MapPlaneId, MapPointId};
 use std::hash::Hash;
 
 /// A kind of landmark stored in the map.
@@ -24,14 +24,10 @@ pub trait Landmark {
     fn set_first_kf(&mut self, kf: KeyFrameId);
     /// Its sighting counts: frames that predicted it in view, frames that matched it.
     fn sightings_mut(&mut self) -> (&mut u32, &mut u32);
-    /// Its representative descriptor.
-    fn descriptor_mut(&mut self) -> &mut Descriptor;
     /// A keyframe's slots of this kind: the landmark each feature observes.
     fn slots(keyframe: &KeyFrame) -> &[Option<Self::Id>];
     /// The same, to link and unlink.
     fn slots_mut(keyframe: &mut KeyFrame) -> &mut [Option<Self::Id>];
-    /// The descriptor of feature `index` of a keyframe.
-    fn feature_descriptor(keyframe: &KeyFrame, index: usize) -> Option<Descriptor>;
     /// This kind's store in the map, and the keyframes (borrowed apart).
     fn store_mut(map: &mut super::Map) -> (&mut IdMap<KeyFrameId, KeyFrame>, &mut Store<Self>)
     where
@@ -40,6 +36,15 @@ pub trait Landmark {
     fn store(map: &super::Map) -> &Store<Self>
     where
         Self: Sized;
+}
+
+/// A landmark kind matched by binary descriptor (points and lines; planes are matched
+/// by geometry).
+pub trait Described: Landmark {
+    /// Its representative descriptor.
+    fn descriptor_mut(&mut self) -> &mut Descriptor;
+    /// The descriptor of feature `index` of a keyframe.
+    fn feature_descriptor(keyframe: &KeyFrame, index: usize) -> Option<Descriptor>;
 }
 
 /// The id of a landmark kind, so that a map method called with an id knows the kind.
@@ -56,6 +61,10 @@ impl LandmarkId for MapPointId {
 
 impl LandmarkId for MapLineId {
     type Landmark = super::MapLine;
+}
+
+impl LandmarkId for MapPlaneId {
+    type Landmark = super::MapPlane;
 }
 
 /// The landmarks of one kind, keyed by id, and the next id to give.

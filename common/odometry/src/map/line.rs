@@ -1,6 +1,6 @@
 //! A map line: a 3D segment in the world seen by one or more keyframes.
 
-use super::landmark::{Landmark, Store};
+use super::landmark::{Described, Landmark, Store};
 use super::{IdMap, KeyFrame, Map};
 use crate::frame::Descriptor;
 use gfs_core::ids::{KeyFrameId, MapLineId};
@@ -82,10 +82,6 @@ impl Landmark for MapLine {
         (&mut self.visible, &mut self.found)
     }
 
-    fn descriptor_mut(&mut self) -> &mut Descriptor {
-        &mut self.descriptor
-    }
-
     fn slots(keyframe: &KeyFrame) -> &[Option<MapLineId>] {
         &keyframe.line_ids
     }
@@ -94,15 +90,21 @@ impl Landmark for MapLine {
         &mut keyframe.line_ids
     }
 
-    fn feature_descriptor(keyframe: &KeyFrame, index: usize) -> Option<Descriptor> {
-        keyframe.features.line_descriptors.get(index).copied()
-    }
-
     fn store_mut(map: &mut Map) -> (&mut IdMap<KeyFrameId, KeyFrame>, &mut Store<Self>) {
         (&mut map.keyframes, &mut map.lines)
     }
 
     fn store(map: &Map) -> &Store<Self> {
         &map.lines
+    }
+}
+
+impl Described for MapLine {
+    fn descriptor_mut(&mut self) -> &mut Descriptor {
+        &mut self.descriptor
+    }
+
+    fn feature_descriptor(keyframe: &KeyFrame, index: usize) -> Option<Descriptor> {
+        keyframe.features.line_descriptors.get(index).copied()
     }
 }

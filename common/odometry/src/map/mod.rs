@@ -7,17 +7,19 @@ mod canonical;
 mod keyframe;
 mod landmark;
 mod line;
+mod plane;
 mod point;
 #[cfg(test)]
 mod tests;
 
 pub use arena::IdMap;
 pub use keyframe::KeyFrame;
-pub use landmark::{Landmark, LandmarkId, Store};
+pub use landmark::{Described, Landmark, LandmarkId, Store};
 pub use line::MapLine;
+pub use plane::{MapPlane, plane_in_world};
 pub use point::MapPoint;
 
-use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
+use gfs_core::ids::{KeyFrameId, MapLineId, MapPlaneId, MapPointId};
 
 /// Landmarks two keyframes must share to be connected in the covisibility graph
 /// (ORB-SLAM2 `KeyFrame::UpdateConnections`: 15).
@@ -31,6 +33,8 @@ pub struct Map {
     keyframes: IdMap<KeyFrameId, KeyFrame>,
     points: Store<MapPoint>,
     lines: Store<MapLine>,
+    #[serde(default)]
+    planes: Store<MapPlane>,
     next_keyframe: u64,
 }
 
@@ -48,6 +52,7 @@ impl Map {
         keyframe.id = id;
         self.observe_slots::<MapPoint>(&mut keyframe);
         self.observe_slots::<MapLine>(&mut keyframe);
+        self.observe_slots::<MapPlane>(&mut keyframe);
         self.keyframes.insert(id, keyframe);
         id
     }
@@ -157,6 +162,7 @@ impl Map {
         };
         forget_keyframe::<MapPoint>(&mut self.points, &kf);
         forget_keyframe::<MapLine>(&mut self.lines, &kf);
+        forget_keyframe::<MapPlane>(&mut self.planes, &kf);
     }
 
     /// Merges landmark `from` into `into`: observations move, `from` disappears, its
@@ -197,7 +203,10 @@ impl Map {
 
     /// Picks as the landmark's descriptor the observation with the least median
     /// Hamming distance to the others (ORB-SLAM's distinctive descriptor).
-    pub fn update_descriptor<I: LandmarkId>(&mut self, id: I) {
+    pub fn update_descriptor<I: LandmarkId>(&mut self, id: I)
+    where
+        I::Landmark: Described,
+    {
         let Some(landmark) = I::Landmark::store(self).items.get(&id) else {
             return;
         };
@@ -233,6 +242,21 @@ impl Map {
     /// The map lines.
     pub fn lines(&self) -> &Store<MapLine> {
         &self.lines
+    }
+
+    /// The map planes.
+    pub fn planes(&self) -> &Store<MapPlane> {
+        &self.planes
+    }
+
+    /// A map plane by id.
+    pub fn plane(&self, id: MapPlaneId) -> Option<&MapPlane> {
+        self.planes.get(id)
+    }
+
+    /// A map plane by id, mutable (its links stay as they are).
+    pub fn plane_mut(&mut self, id: MapPlaneId) -> Option<&mut MapPlane> {
+        self.planes.items.get_mut(&id)
     }
 
     /// A landmark of any kind by id, mutable (its links stay as they are).

@@ -1,6 +1,6 @@
 //! A map point: a 3D point in the world seen by one or more keyframes.
 
-use super::landmark::{Landmark, Store};
+use super::landmark::{Described, Landmark, Store};
 use super::{IdMap, KeyFrame, Map};
 use crate::frame::Descriptor;
 use gfs_core::ids::{KeyFrameId, MapPointId};
@@ -76,10 +76,6 @@ impl Landmark for MapPoint {
         (&mut self.visible, &mut self.found)
     }
 
-    fn descriptor_mut(&mut self) -> &mut Descriptor {
-        &mut self.descriptor
-    }
-
     fn slots(keyframe: &KeyFrame) -> &[Option<MapPointId>] {
         &keyframe.point_ids
     }
@@ -88,15 +84,21 @@ impl Landmark for MapPoint {
         &mut keyframe.point_ids
     }
 
-    fn feature_descriptor(keyframe: &KeyFrame, index: usize) -> Option<Descriptor> {
-        keyframe.features.point_descriptors.get(index).copied()
-    }
-
     fn store_mut(map: &mut Map) -> (&mut IdMap<KeyFrameId, KeyFrame>, &mut Store<Self>) {
         (&mut map.keyframes, &mut map.points)
     }
 
     fn store(map: &Map) -> &Store<Self> {
         &map.points
+    }
+}
+
+impl Described for MapPoint {
+    fn descriptor_mut(&mut self) -> &mut Descriptor {
+        &mut self.descriptor
+    }
+
+    fn feature_descriptor(keyframe: &KeyFrame, index: usize) -> Option<Descriptor> {
+        keyframe.features.point_descriptors.get(index).copied()
     }
 }

@@ -218,6 +218,9 @@ impl TrackingSession {
             status = %frame.status,
             points = frame.inliers.points,
             lines = frame.inliers.lines,
+            depth = frame.inliers.depth,
+            planes = frame.inliers.planes,
+            frame_planes = frame.features.planes.len(),
             keyframe = wants_keyframe,
             keyframes = self.map.keyframe_count(),
             "tracked"
@@ -351,9 +354,35 @@ impl TrackingSession {
         let with_depth = features.keypoints.iter().filter(|k| k.depth > 0.0).count();
         let predicted = self.tracker.predict().unwrap_or_else(Isometry3::identity);
         let mut frame = TrackedFrame::untracked(features, predicted);
-        if with_depth >= self.config.tracking.min_initial_points {
+        if with_depth >= self.config.tracking.min_initial_points || self.depth_determines(&frame) {
             frame.status = TrackingStatus::Tracked;
         }
         frame
+    }
+
+    /// With the depth alignment or the planes, a frame whose depth or planes alone
+    /// determine a pose may start a map whatever its keypoints (a low-texture room).
+    fn depth_determines(&self, frame: &TrackedFrame) -> bool {
+        let tracking = &self.config.tracking;
+        if !tracking.use_depth_alignment && !tracking.use_planes {
+            return false;
+        }
+        let mut information = nalgebra::Matrix6::zeros();
+        if tracking.use_depth_alignment && !frame.features.depth.is_empty() {
+            information +=
+                crate::depth_alignment::self_information(&tracking.depth, &frame.features.depth);
+        }
+        if tracking.use_planes {
+            information += crate::plane_association::self_information(
+                &tracking.planes,
+                &frame.features.planes,
+            );
+        }
+        gfs_optim::analyse_constraint(
+            &information,
+            tracking.depth.lever_arm_m,
+            tracking.depth.max_sigma_m,
+        )
+        .is_determined()
     }
 }

@@ -7,19 +7,23 @@
 //! The tracker reads the map and never changes it: what it saw of each landmark goes
 //! into [`Sightings`], which travel to the map's owner with the next keyframe request.
 
+mod depth;
 mod local_map;
+mod planes;
 mod strategies;
 mod tracked_frame;
 
 pub use tracked_frame::TrackedFrame;
 
 use crate::config::TrackingConfig;
+use crate::depth_alignment::DepthAssociator;
 use crate::frame::FrameFeatures;
 use crate::map::Map;
 use crate::matching::{
     LineProjectionMatcher, PointProjectionMatcher, ProjectionCandidate, ScalePyramid,
 };
 use crate::motion::MotionModel;
+use crate::plane_association::PlaneAssociator;
 use crate::pose_solver::{Inliers, PoseSolver};
 use crate::ransac::{Correspondence, RigidRansac};
 use crate::relocalise::relocalise;
@@ -27,7 +31,7 @@ use crate::rolling_shutter;
 use crate::sightings::Sightings;
 use crate::status::TrackingStatus;
 use gfs_core::camera::PinholeCamera;
-use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
+use gfs_core::ids::{KeyFrameId, MapLineId, MapPlaneId, MapPointId};
 use gfs_lines::grid::GridConfig;
 use nalgebra::Isometry3;
 
@@ -76,6 +80,14 @@ pub struct Tracker {
     ransac: RigidRansac,
     correspondences: Vec<Correspondence>,
     correspondence_keypoints: Vec<(usize, MapPointId)>,
+    depth_associator: DepthAssociator,
+    /// Depth pairs of the last association pass.
+    depth_pairs: usize,
+    plane_associator: PlaneAssociator,
+    /// `(frame plane, map plane)` pairs set on the solver.
+    plane_pairs: Vec<(usize, MapPlaneId)>,
+    /// The reference keyframe's depth (`[tracking.depth] keyframe_reference`).
+    keyframe_depth: Option<(KeyFrameId, crate::depth_grid::DepthGrid)>,
 }
 
 impl Tracker {
@@ -101,6 +113,11 @@ impl Tracker {
             ransac: RigidRansac::default(),
             correspondences: Vec::new(),
             correspondence_keypoints: Vec::new(),
+            depth_associator: DepthAssociator::default(),
+            depth_pairs: 0,
+            plane_associator: PlaneAssociator::default(),
+            plane_pairs: Vec::new(),
+            keyframe_depth: None,
             config,
             camera,
         }
@@ -199,12 +216,32 @@ impl Tracker {
         if ok || self.last.is_none() {
             ok = self.track_local_map(map, &mut frame, sightings);
         }
+        let use_depth = self.config.use_depth_alignment;
+        let use_planes = self.config.use_planes;
         if ok {
-            frame.status = if frame.inliers.total() < self.config.degraded_inliers {
-                TrackingStatus::Degraded
+            if use_planes {
+                self.refine_with_planes(map, &mut frame);
+            }
+            if use_depth {
+                self.refine_with_depth(map, &mut frame);
+            }
+            if use_planes || use_depth {
+                self.keep_plane_inliers(&mut frame);
+                self.clear_planes();
+                frame.status = self.status_from_information();
             } else {
-                TrackingStatus::Tracked
-            };
+                frame.status = if frame.inliers.total() < self.config.degraded_inliers {
+                    TrackingStatus::Degraded
+                } else {
+                    TrackingStatus::Tracked
+                };
+            }
+            return frame;
+        }
+        frame.restart(&predicted);
+        frame.inliers = Inliers::default();
+        if (use_depth || use_planes) && self.track_on_geometry(map, &mut frame) {
+            frame.status = self.status_from_information();
             return frame;
         }
         frame.restart(&predicted);

@@ -4,7 +4,7 @@
 use crate::frame::FrameFeatures;
 use crate::pose_solver::Inliers;
 use crate::status::TrackingStatus;
-use gfs_core::ids::{MapLineId, MapPointId};
+use gfs_core::ids::{MapLineId, MapPlaneId, MapPointId};
 use nalgebra::Isometry3;
 
 /// The result of tracking one frame.
@@ -20,6 +20,9 @@ pub struct TrackedFrame {
     pub point_ids: Vec<Option<MapPointId>>,
     /// Map line matched to each line (inliers only).
     pub line_ids: Vec<Option<MapLineId>>,
+    /// Map plane matched to each plane (inliers only).
+    #[serde(default)]
+    pub plane_ids: Vec<Option<MapPlaneId>>,
     /// Inlier counts of the final optimisation.
     pub inliers: Inliers,
 }
@@ -30,6 +33,7 @@ impl TrackedFrame {
         Self {
             point_ids: vec![None; features.keypoints.len()],
             line_ids: vec![None; features.lines.len()],
+            plane_ids: vec![None; features.planes.len()],
             camera_from_world,
             status: TrackingStatus::Predicted,
             inliers: Inliers::default(),
@@ -42,5 +46,6 @@ impl TrackedFrame {
         self.camera_from_world = *camera_from_world;
         self.point_ids.iter_mut().for_each(|m| *m = None);
         self.line_ids.iter_mut().for_each(|m| *m = None);
+        self.plane_ids.iter_mut().for_each(|m| *m = None);
     }
 }

@@ -54,6 +54,9 @@ pub struct BaConfig {
     pub perpendicular_chi2: f64,
     /// Chi-square threshold (and Huber `sqrt`) of a line-axis term; default 5.991.
     pub manhattan_chi2: f64,
+    /// Chi-square threshold (and Huber `sqrt`) of a whitened plane-to-plane error of a
+    /// keyframe (3 dof, 95 %); default 7.815.
+    pub plane_chi2: f64,
 }
 
 impl Default for BaConfig {
@@ -72,6 +75,7 @@ impl Default for BaConfig {
             parallel_chi2: CHI2_2DOF_95,
             perpendicular_chi2: CHI2_1DOF_95,
             manhattan_chi2: CHI2_2DOF_95,
+            plane_chi2: CHI2_3DOF_95,
         }
     }
 }

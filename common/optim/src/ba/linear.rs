@@ -37,8 +37,11 @@ pub(crate) struct ReducedSystem {
     line_block: Vec<usize>,
     point_used: Vec<bool>,
     line_used: Vec<bool>,
+    plane_used: Vec<bool>,
     /// CSR lists of the active observations with a free pose, per point.
     point_obs: ObsLists,
+    /// Same per plane.
+    plane_obs: ObsLists,
     /// Same per eliminated line.
     line_obs: ObsLists,
     blocks: usize,
@@ -52,6 +55,7 @@ pub(crate) struct ReducedSystem {
     values: Vec<f64>,
     rhs: Vec<f64>,
     point_inverse: Vec<Matrix3<f64>>,
+    plane_inverse: Vec<Matrix3<f64>>,
     line_inverse: Vec<Matrix6<f64>>,
     scratch_y3: Vec<Matrix6x3<f64>>,
     scratch_y6: Vec<Matrix6<f64>>,
@@ -183,6 +187,16 @@ impl ReducedSystem {
         self.line_used.resize(p.lines.len(), false);
         self.point_used.clear();
         self.point_used.resize(p.points.len(), false);
+        self.plane_used.clear();
+        self.plane_used.resize(p.planes.len(), false);
+        for (o, _) in p
+            .plane_observations
+            .iter()
+            .zip(&flags.plane_observations)
+            .filter(|(_, f)| **f)
+        {
+            self.plane_used[o.plane] = true;
+        }
         let pairs = p
             .parallel
             .iter()
@@ -232,6 +246,13 @@ impl ReducedSystem {
             .filter(|&(k, o)| flags.point_observations[k] && pose_block[o.pose] != NONE)
             .map(|(k, o)| (k, o.point, pose_block[o.pose]));
         build_lists(p.points.len(), point_iter, &mut self.point_obs);
+        let plane_iter = p
+            .plane_observations
+            .iter()
+            .enumerate()
+            .filter(|&(k, o)| flags.plane_observations[k] && pose_block[o.pose] != NONE)
+            .map(|(k, o)| (k, o.plane, pose_block[o.pose]));
+        build_lists(p.planes.len(), plane_iter, &mut self.plane_obs);
         let line_block = &self.line_block;
         let line_iter = p
             .line_observations
@@ -355,6 +376,7 @@ impl ReducedSystem {
         self.rhs.clear();
         self.rhs.resize(6 * self.blocks, 0.0);
         self.point_inverse.resize(p.points.len(), Matrix3::zeros());
+        self.plane_inverse.resize(p.planes.len(), Matrix3::zeros());
         self.line_inverse.resize(p.lines.len(), Matrix6::zeros());
 
         for (i, &b) in self.pose_block.iter().enumerate() {
@@ -364,40 +386,32 @@ impl ReducedSystem {
                 set_rhs(&mut self.rhs, b, &(-lin.g_pose[i]));
             }
         }
-        // Eliminate points (eq. of the Schur complement: S -= W A^-1 W^T, r += W A^-1 g).
-        for x in 0..p.points.len() {
-            if !self.point_used[x] {
-                continue;
-            }
-            let h = &lin.h_point[x];
-            let inverse = damped(h, &landmark_scale(h), damping)
-                .cholesky()
-                .ok_or(NotPositiveDefinite)?
-                .inverse();
-            self.point_inverse[x] = inverse;
-            let (start, entries) = &self.point_obs;
-            let list = &entries[start[x]..start[x + 1]];
-            self.scratch_y3.clear();
-            for &(k, b) in list {
-                let y = lin.w_point_obs[k] * inverse;
-                let r = y * lin.g_point[x];
-                for c in 0..6 {
-                    self.rhs[6 * b + c] += r[c];
-                }
-                self.scratch_y3.push(y);
-            }
-            for (ya, &(_, ba)) in self.scratch_y3.iter().zip(list) {
-                for &(kb, bb) in list {
-                    if ba >= bb {
-                        sub_outer(
-                            &mut self.slot_values[pose_pair_slot(ba, bb)],
-                            ya,
-                            &lin.w_point_obs[kb],
-                        );
-                    }
-                }
-            }
-        }
+        // Eliminate points and planes, 3-dof landmarks (the Schur complement:
+        // S -= W A^-1 W^T, r += W A^-1 g).
+        Self::eliminate3(
+            &self.point_used,
+            &self.point_obs,
+            &lin.h_point,
+            &lin.g_point,
+            &lin.w_point_obs,
+            damping,
+            &mut self.point_inverse,
+            &mut self.scratch_y3,
+            &mut self.rhs,
+            &mut self.slot_values,
+        )?;
+        Self::eliminate3(
+            &self.plane_used,
+            &self.plane_obs,
+            &lin.h_plane,
+            &lin.g_plane,
+            &lin.w_plane_obs,
+            damping,
+            &mut self.plane_inverse,
+            &mut self.scratch_y3,
+            &mut self.rhs,
+            &mut self.slot_values,
+        )?;
         // Eliminate the lines outside every structural pair the same way; keep the others.
         for l in 0..p.lines.len() {
             if !self.line_used[l] {
@@ -470,6 +484,52 @@ impl ReducedSystem {
         }
         self.factor_and_solve()?;
         Ok(self.back_substitute(p, lin, damping, step))
+    }
+
+    /// Eliminates the used 3-dof landmarks of one kind (points or planes) into the
+    /// reduced system, keeping each one's damped inverse for the back-substitution.
+    #[allow(clippy::too_many_arguments)]
+    fn eliminate3(
+        used: &[bool],
+        obs: &ObsLists,
+        h: &[Matrix3<f64>],
+        g: &[nalgebra::Vector3<f64>],
+        w_obs: &[Matrix6x3<f64>],
+        damping: &Damping,
+        inverses: &mut [Matrix3<f64>],
+        scratch: &mut Vec<Matrix6x3<f64>>,
+        rhs: &mut [f64],
+        slot_values: &mut [Matrix6<f64>],
+    ) -> Result<(), NotPositiveDefinite> {
+        let (start, entries) = obs;
+        for x in 0..used.len() {
+            if !used[x] {
+                continue;
+            }
+            let inverse = damped(&h[x], &landmark_scale(&h[x]), damping)
+                .cholesky()
+                .ok_or(NotPositiveDefinite)?
+                .inverse();
+            inverses[x] = inverse;
+            let list = &entries[start[x]..start[x + 1]];
+            scratch.clear();
+            for &(k, b) in list {
+                let y = w_obs[k] * inverse;
+                let r = y * g[x];
+                for c in 0..6 {
+                    rhs[6 * b + c] += r[c];
+                }
+                scratch.push(y);
+            }
+            for (ya, &(_, ba)) in scratch.iter().zip(list) {
+                for &(kb, bb) in list {
+                    if ba >= bb {
+                        sub_outer(&mut slot_values[pose_pair_slot(ba, bb)], ya, &w_obs[kb]);
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Factorises the reduced matrix and overwrites `rhs` with the reduced step.
@@ -564,6 +624,25 @@ impl ReducedSystem {
                 landmark_scale(&lin.h_point[x]).as_slice(),
                 lin.g_point[x].as_slice(),
                 step.point[x].as_slice(),
+            );
+        }
+        step.plane.clear();
+        step.plane.resize(p.planes.len(), Vector3::zeros());
+        let (start, entries) = &self.plane_obs;
+        for q in 0..p.planes.len() {
+            if !self.plane_used[q] {
+                continue;
+            }
+            let mut r = -lin.g_plane[q];
+            for &(k, _) in &entries[start[q]..start[q + 1]] {
+                let pose = p.plane_observations[k].pose;
+                r -= lin.w_plane_obs[k].transpose() * step.pose[pose];
+            }
+            step.plane[q] = self.plane_inverse[q] * r;
+            add(
+                landmark_scale(&lin.h_plane[q]).as_slice(),
+                lin.g_plane[q].as_slice(),
+                step.plane[q].as_slice(),
             );
         }
         step.line.clear();

@@ -14,6 +14,10 @@ pub(crate) struct Linearization {
     pub(crate) g_point: Vec<Vector3<f64>>,
     pub(crate) h_line: Vec<Matrix6<f64>>,
     pub(crate) g_line: Vec<Vector6<f64>>,
+    pub(crate) h_plane: Vec<Matrix3<f64>>,
+    pub(crate) g_plane: Vec<Vector3<f64>>,
+    /// Pose-plane block `H_pq` of each plane observation (free pose only).
+    pub(crate) w_plane_obs: Vec<Matrix6x3<f64>>,
     /// Pose-point block `H_px` of each point observation (free pose only).
     pub(crate) w_point_obs: Vec<Matrix6x3<f64>>,
     /// Pose-line block `H_pl` of each line observation (free pose only).
@@ -32,6 +36,10 @@ impl Linearization {
         self.g_point.resize(p.points.len(), Vector3::zeros());
         self.h_line.resize(p.lines.len(), Matrix6::zeros());
         self.g_line.resize(p.lines.len(), Vector6::zeros());
+        self.h_plane.resize(p.planes.len(), Matrix3::zeros());
+        self.g_plane.resize(p.planes.len(), Vector3::zeros());
+        self.w_plane_obs
+            .resize(p.plane_observations.len(), Matrix6x3::zeros());
         self.w_point_obs
             .resize(p.point_observations.len(), Matrix6x3::zeros());
         self.w_line_obs
@@ -49,6 +57,9 @@ impl Linearization {
         self.g_point.fill(Vector3::zeros());
         self.h_line.fill(Matrix6::zeros());
         self.g_line.fill(Vector6::zeros());
+        self.h_plane.fill(Matrix3::zeros());
+        self.g_plane.fill(Vector3::zeros());
+        self.w_plane_obs.fill(Matrix6x3::zeros());
         self.w_point_obs.fill(Matrix6x3::zeros());
         self.w_line_obs.fill(Matrix6::zeros());
         self.h_parallel.fill(Matrix6::zeros());
@@ -62,4 +73,5 @@ pub(crate) struct Step {
     pub(crate) pose: Vec<Vector6<f64>>,
     pub(crate) point: Vec<Vector3<f64>>,
     pub(crate) line: Vec<Vector6<f64>>,
+    pub(crate) plane: Vec<Vector3<f64>>,
 }

@@ -66,6 +66,23 @@ pub struct BaLinePrior {
     pub information: [f64; 2],
 }
 
+/// A keyframe's observation of a map plane: the plane-to-plane error of its pose and
+/// the plane ([`crate::residuals::PlaneToPlane`]); it ties the keyframes that see the
+/// same wall or floor together.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaPlaneObservation {
+    /// Index into [`BaProblem::poses`].
+    pub pose: usize,
+    /// Index into [`BaProblem::planes`].
+    pub plane: usize,
+    /// The keyframe's measurement of the plane, camera frame.
+    pub measured: crate::residuals::PlaneToPlane,
+    /// Information of the normal's difference, 1/rad^2.
+    pub inv_sigma2_normal: f64,
+    /// Information of the offset's difference, 1/m^2.
+    pub inv_sigma2_offset: f64,
+}
+
 /// The variables and terms of one local BA. Points and lines are updated in place.
 #[derive(Clone, Debug)]
 pub struct BaProblem {
@@ -78,6 +95,9 @@ pub struct BaProblem {
     pub points: Vec<Vector3<f64>>,
     /// Map lines as their two endpoints `[S, E]`, world frame, metres.
     pub lines: Vec<[Vector3<f64>; 2]>,
+    /// Map planes `(unit normal, offset)`, `n . p + d = 0`, world frame; updated on S2 x
+    /// R ([`crate::residuals::plane_plus`]).
+    pub planes: Vec<(Vector3<f64>, f64)>,
     /// Point observations.
     pub point_observations: Vec<BaPointObservation>,
     /// Line observations.
@@ -90,6 +110,8 @@ pub struct BaProblem {
     pub manhattan: Vec<BaManhattan>,
     /// Depth priors of lines (at most one per line).
     pub line_priors: Vec<BaLinePrior>,
+    /// Keyframe observations of map planes.
+    pub plane_observations: Vec<BaPlaneObservation>,
 }
 
 impl BaProblem {
@@ -100,12 +122,14 @@ impl BaProblem {
             poses: Vec::new(),
             points: Vec::new(),
             lines: Vec::new(),
+            planes: Vec::new(),
             point_observations: Vec::new(),
             line_observations: Vec::new(),
             parallel: Vec::new(),
             perpendicular: Vec::new(),
             manhattan: Vec::new(),
             line_priors: Vec::new(),
+            plane_observations: Vec::new(),
         }
     }
 
@@ -187,6 +211,19 @@ impl BaProblem {
                 .all(|v| v.is_finite())
                 && prior.information.iter().all(|w| w.is_finite() && *w >= 0.0);
             finite("line_priors", i, ok)?;
+        }
+        for (i, (n, d)) in self.planes.iter().enumerate() {
+            let ok = n.iter().all(|v| v.is_finite()) && (n.norm() - 1.0).abs() < 1e-6;
+            finite("planes", i, ok && d.is_finite())?;
+        }
+        for (i, o) in self.plane_observations.iter().enumerate() {
+            check("plane_observations", i, "pose", o.pose, np)?;
+            check("plane_observations", i, "plane", o.plane, self.planes.len())?;
+            let ok = o.measured.normal_in_camera.iter().all(|v| v.is_finite())
+                && o.measured.offset.is_finite()
+                && o.inv_sigma2_normal.is_finite()
+                && o.inv_sigma2_offset.is_finite();
+            finite("plane_observations", i, ok)?;
         }
         if np > 0 && self.poses.iter().all(|p| !p.fixed) {
             return Err(BaError::NoFixedPose { poses: np });

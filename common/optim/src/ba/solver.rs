@@ -9,6 +9,7 @@ use super::normal::{Linearization, Step};
 use super::problem::{BaError, BaProblem};
 use super::terms::{BaFlags, Terms, Values};
 use crate::lm::Damping;
+use crate::residuals::plane_plus;
 use gfs_core::se3::retract;
 
 /// Relative cost decrease below which LM has converged.
@@ -149,6 +150,7 @@ impl LocalBundleAdjuster {
         }
         problem.points.clone_from(&self.values.points);
         problem.lines.clone_from(&self.values.lines);
+        problem.planes.clone_from(&self.values.planes);
         Ok(())
     }
 
@@ -214,7 +216,8 @@ impl LocalBundleAdjuster {
         Ok(Pass::ended(max_iterations, false))
     }
 
-    /// `candidate = values ⊕ step` (left perturbation for poses, additive for landmarks).
+    /// `candidate = values ⊕ step` (left perturbation for poses, additive for points and
+    /// lines, S2 x R for planes).
     fn apply_step(&mut self, problem: &BaProblem) {
         self.candidate.clone_from(&self.values);
         for ((c, d), pose) in self
@@ -234,6 +237,9 @@ impl LocalBundleAdjuster {
         for (c, d) in self.candidate.lines.iter_mut().zip(&self.step.line) {
             c[0] += d.fixed_rows::<3>(0);
             c[1] += d.fixed_rows::<3>(3);
+        }
+        for ((n, offset), d) in self.candidate.planes.iter_mut().zip(&self.step.plane) {
+            (*n, *offset) = plane_plus(n, *offset, d);
         }
     }
 }

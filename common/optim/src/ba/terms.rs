@@ -10,7 +10,7 @@ use crate::residuals::{
     StereoPointReprojection,
 };
 use crate::robust::Huber;
-use nalgebra::{Isometry3, SMatrix, SVector, Vector3};
+use nalgebra::{Isometry3, SMatrix, SVector, Vector3, Vector4};
 
 /// The current values of all variables.
 #[derive(Clone, Debug, Default)]
@@ -18,6 +18,7 @@ pub(crate) struct Values {
     pub(crate) poses: Vec<Isometry3<f64>>,
     pub(crate) points: Vec<Vector3<f64>>,
     pub(crate) lines: Vec<[Vector3<f64>; 2]>,
+    pub(crate) planes: Vec<(Vector3<f64>, f64)>,
 }
 
 impl Values {
@@ -27,6 +28,7 @@ impl Values {
             .extend(problem.poses.iter().map(|p| p.camera_from_world));
         self.points.clone_from(&problem.points);
         self.lines.clone_from(&problem.lines);
+        self.planes.clone_from(&problem.planes);
     }
 }
 
@@ -43,6 +45,8 @@ pub struct BaFlags {
     pub perpendicular: Vec<bool>,
     /// One per [`BaProblem::manhattan`] association.
     pub manhattan: Vec<bool>,
+    /// One per [`BaProblem::plane_observations`].
+    pub plane_observations: Vec<bool>,
 }
 
 impl BaFlags {
@@ -59,6 +63,10 @@ impl BaFlags {
         reset(&mut self.parallel, problem.parallel.len());
         reset(&mut self.perpendicular, problem.perpendicular.len());
         reset(&mut self.manhattan, problem.manhattan.len());
+        reset(
+            &mut self.plane_observations,
+            problem.plane_observations.len(),
+        );
     }
 }
 
@@ -72,6 +80,13 @@ pub(crate) struct Terms<'a> {
     parallel_huber: Huber,
     perpendicular_huber: Huber,
     manhattan_huber: Huber,
+    plane_huber: Huber,
+}
+
+/// Square roots of a plane observation's information per error row (normal x3, offset).
+fn plane_weights(o: &super::problem::BaPlaneObservation) -> Vector4<f64> {
+    let (wn, wd) = (o.inv_sigma2_normal.sqrt(), o.inv_sigma2_offset.sqrt());
+    Vector4::new(wn, wn, wn, wd)
 }
 
 /// Adds `J^T w J` and `J^T w e` of a residual of one variable to its blocks.
@@ -99,6 +114,7 @@ impl<'a> Terms<'a> {
             parallel_huber: Huber::from_chi2(config.parallel_chi2),
             perpendicular_huber: Huber::from_chi2(config.perpendicular_chi2),
             manhattan_huber: Huber::from_chi2(config.manhattan_chi2),
+            plane_huber: Huber::from_chi2(config.plane_chi2),
         }
     }
 
@@ -179,6 +195,14 @@ impl<'a> Terms<'a> {
         Some(self.config.manhattan_weight * e.norm_squared())
     }
 
+    fn plane_chi2(&self, v: &Values, k: usize) -> Option<f64> {
+        let o = &self.problem.plane_observations[k];
+        let (n, d) = &v.planes[o.plane];
+        let e = o.measured.error(&v.poses[o.pose], n, *d);
+        let s = plane_weights(o).component_mul(&e).norm_squared();
+        s.is_finite().then_some(s)
+    }
+
     /// Cost of the line depth priors at `v` (plain least squares: a prior is never an
     /// outlier).
     fn line_prior_cost(&self, v: &Values) -> f64 {
@@ -216,6 +240,9 @@ impl<'a> Terms<'a> {
         for (k, f) in flags.manhattan.iter_mut().enumerate() {
             *f = inlier(self.manhattan_chi2(v, k), self.config.manhattan_chi2);
         }
+        for (k, f) in flags.plane_observations.iter_mut().enumerate() {
+            *f = inlier(self.plane_chi2(v, k), self.config.plane_chi2);
+        }
     }
 
     /// Flags only the terms that cannot be evaluated at `v` (the start of the first
@@ -236,6 +263,9 @@ impl<'a> Terms<'a> {
         }
         for (k, f) in flags.manhattan.iter_mut().enumerate() {
             *f = self.manhattan_chi2(v, k).is_some();
+        }
+        for (k, f) in flags.plane_observations.iter_mut().enumerate() {
+            *f = self.plane_chi2(v, k).is_some();
         }
     }
 
@@ -266,6 +296,9 @@ impl<'a> Terms<'a> {
         }
         for k in (0..flags.manhattan.len()).filter(|&k| self.manhattan_active(flags, k)) {
             ok &= add(self.manhattan_chi2(v, k), &self.manhattan_huber);
+        }
+        for k in (0..flags.plane_observations.len()).filter(|&k| flags.plane_observations[k]) {
+            ok &= add(self.plane_chi2(v, k), &self.plane_huber);
         }
         cost += self.line_prior_cost(v);
         (ok && cost.is_finite()).then_some(cost)
@@ -390,6 +423,38 @@ impl<'a> Terms<'a> {
                 &l.error,
                 w,
             );
+        }
+        for (k, o) in p.plane_observations.iter().enumerate() {
+            if !flags.plane_observations[k] {
+                continue;
+            }
+            let (n, d) = &v.planes[o.plane];
+            let l = o.measured.linearize(&v.poses[o.pose], n, *d);
+            // Whitened rows: the normal's and the offset's weights differ.
+            let w_rows = plane_weights(o);
+            let e = w_rows.component_mul(&l.error);
+            let d_pose = SMatrix::<f64, 4, 6>::from_fn(|r, c| w_rows[r] * l.d_pose[(r, c)]);
+            let d_plane = SMatrix::<f64, 4, 3>::from_fn(|r, c| w_rows[r] * l.d_plane[(r, c)]);
+            let s = e.norm_squared();
+            let w = self.plane_huber.weight(s);
+            lin.cost += self.plane_huber.cost(s);
+            add_block(
+                &mut lin.h_plane[o.plane],
+                &mut lin.g_plane[o.plane],
+                &d_plane,
+                &e,
+                w,
+            );
+            if !p.poses[o.pose].fixed {
+                add_block(
+                    &mut lin.h_pose[o.pose],
+                    &mut lin.g_pose[o.pose],
+                    &d_pose,
+                    &e,
+                    w,
+                );
+                lin.w_plane_obs[k] = d_pose.transpose() * w * d_plane;
+            }
         }
     }
 

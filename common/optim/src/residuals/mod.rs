@@ -12,7 +12,9 @@ mod line;
 mod manhattan;
 mod parallel;
 mod perpendicular;
+mod plane;
 mod point;
+mod point_to_plane;
 mod projection;
 mod stereo;
 
@@ -20,7 +22,9 @@ pub use line::{LineLinearization, LineReprojection};
 pub use manhattan::{ManhattanAxis, ManhattanLinearization};
 pub use parallel::{ParallelLinearization, ParallelLines};
 pub use perpendicular::{PerpendicularLinearization, PerpendicularLines};
+pub use plane::{PlaneLinearization, PlaneToPlane, plane_plus, tangent_basis};
 pub use point::{PointLinearization, PointReprojection};
+pub use point_to_plane::{PointToPlane, PointToPlaneLinearization};
 pub use stereo::{StereoPointLinearization, StereoPointReprojection};
 
 #[cfg(test)]

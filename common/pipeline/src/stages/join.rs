@@ -1,10 +1,11 @@
-//! The tracker's join of the three feature messages of a frame (points, lines,
-//! Manhattan axes) by frame id, with a deadline for a message that does not come.
+//! The tracker's join of the feature messages of a frame (points, lines, Manhattan axes,
+//! and the planes and depth grid when the tracker uses them) by frame id, with a
+//! deadline for a message that does not come.
 
 use crate::wire::{WireKeyPoint, WireLine, WireManhattan};
 use gfs_core::ids::FrameId;
 use gfs_ipc::MsgHeader;
-use gfs_odometry::FrameFeatures;
+use gfs_odometry::{FrameFeatures, FrameSurfaces};
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
@@ -16,6 +17,13 @@ struct Pending {
     points: bool,
     lines: bool,
     manhattan: bool,
+    surfaces: bool,
+}
+
+impl Pending {
+    fn complete(&self, surfaces_expected: bool) -> bool {
+        self.points && self.lines && self.manhattan && (self.surfaces || !surfaces_expected)
+    }
 }
 
 /// A frame ready for tracking.
@@ -37,15 +45,27 @@ pub enum Part {
     Lines,
     /// From the planes stage.
     Manhattan,
+    /// From the planes stage, when the tracker uses planes or depth.
+    Surfaces,
 }
 
 /// Frames waiting for their parts, by id.
 #[derive(Default)]
 pub struct FrameJoin {
     pending: BTreeMap<u64, Pending>,
+    surfaces_expected: bool,
 }
 
 impl FrameJoin {
+    /// A join that waits for the surfaces part of each frame too when
+    /// `surfaces_expected`.
+    pub fn new(surfaces_expected: bool) -> Self {
+        Self {
+            surfaces_expected,
+            ..Self::default()
+        }
+    }
+
     fn entry(&mut self, header: &MsgHeader) -> &mut Pending {
         let pending = self
             .pending
@@ -61,6 +81,7 @@ impl FrameJoin {
                 points: false,
                 lines: false,
                 manhattan: false,
+                surfaces: false,
             });
         pending.header.merge_stamps(header);
         pending
@@ -93,6 +114,16 @@ impl FrameJoin {
         }
     }
 
+    /// Adds the planes and depth grid of a frame (a message that does not decode counts
+    /// as none).
+    pub fn add_surfaces(&mut self, header: &MsgHeader, surfaces: FrameSurfaces) {
+        let p = self.entry(header);
+        if !std::mem::replace(&mut p.surfaces, true) {
+            p.features.planes = surfaces.planes;
+            p.features.depth = surfaces.depth;
+        }
+    }
+
     /// The part to wait for: one the oldest pending frame still lacks (the tracker needs
     /// them all, so sleeping on the topic of any missing one wakes it no later than the
     /// frame can be complete); points, the slowest stage, when nothing is pending.
@@ -101,6 +132,7 @@ impl FrameJoin {
             Some((_, p)) if !p.points => Part::Points,
             Some((_, p)) if !p.manhattan => Part::Manhattan,
             Some((_, p)) if !p.lines => Part::Lines,
+            Some((_, p)) if self.surfaces_expected && !p.surfaces => Part::Surfaces,
             _ => Part::Points,
         }
     }
@@ -114,8 +146,7 @@ impl FrameJoin {
     /// since its first part arrived (tracked without the missing ones).
     pub fn next_in_order(&mut self, deadline: Duration) -> Option<Joined> {
         let (&id, p) = self.pending.first_key_value()?;
-        let complete = p.points && p.lines && p.manhattan;
-        if !complete && p.first_seen.elapsed() < deadline {
+        if !p.complete(self.surfaces_expected) && p.first_seen.elapsed() < deadline {
             return None;
         }
         self.take(id)
@@ -128,7 +159,7 @@ impl FrameJoin {
             .pending
             .iter()
             .rev()
-            .find(|(_, p)| p.points && p.lines && p.manhattan)
+            .find(|(_, p)| p.complete(self.surfaces_expected))
             .map(|(id, _)| *id);
         if let Some(id) = newest_complete {
             self.drop_before(id);
@@ -142,13 +173,14 @@ impl FrameJoin {
 
     fn take(&mut self, id: u64) -> Option<Joined> {
         let p = self.pending.remove(&id)?;
-        let incomplete = !(p.points && p.lines && p.manhattan);
+        let incomplete = !p.complete(self.surfaces_expected);
         if incomplete {
             tracing::warn!(
                 frame = id,
                 points = p.points,
                 lines = p.lines,
                 manhattan = p.manhattan,
+                surfaces = p.surfaces,
                 "tracker: feature message missing at the deadline; tracking without it"
             );
         }

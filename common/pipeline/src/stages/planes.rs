@@ -4,9 +4,9 @@
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
 use crate::wire::{WireLine, WireManhattan, WirePose};
-use gfs_ipc::{Mode, Service, Stage, TopicSubscriber, frame_view, topics};
+use gfs_ipc::{Mode, Service, Stage, TopicSubscriber, encode_message, frame_view, topics};
 use gfs_lines::Line3;
-use gfs_odometry::StructureExtractor;
+use gfs_odometry::{FrameSurfaces, StructureExtractor};
 use nalgebra::Rotation3;
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -31,6 +31,10 @@ impl Prediction {
     }
 }
 
+/// Initial size of a surfaces message: the 80 x 60 depth grid of a VGA frame (115 kB)
+/// and its planes; the publisher grows it for larger frames.
+const SURFACES_INITIAL_BYTES: usize = 1 << 17;
+
 /// The checkpoint: the last frame done and the axes the next one is labelled against.
 const CHECKPOINT: &str = "planes.bin";
 
@@ -41,7 +45,10 @@ const CHECKPOINT: &str = "planes.bin";
 /// [`StageError`] when the config is invalid or a topic fails.
 pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let camera = ctx.config().camera()?.pinhole;
-    let use_manhattan = ctx.config().tracking.use_manhattan;
+    let tracking = &ctx.config().tracking;
+    let use_manhattan = tracking.use_manhattan;
+    // The planes and the depth grid go to the tracker only for the terms that use them.
+    let (send_planes, send_depth) = (tracking.use_planes, tracking.use_depth_alignment);
     let mut structure =
         StructureExtractor::new(&ctx.config().planes).map_err(|e| StageError::Setup {
             stage: "planes",
@@ -50,6 +57,13 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let lines = ctx.subscribe::<WireLine>(topics::LINES)?;
     let poses = ctx.subscribe::<WirePose>(topics::POSE)?;
     let publisher = ctx.publish::<WireManhattan>(topics::MANHATTAN, 1)?;
+    let surfaces_publisher = if send_planes || send_depth {
+        Some(ctx.publish::<u8>(topics::SURFACES, SURFACES_INITIAL_BYTES)?)
+    } else {
+        None
+    };
+    let mut surfaces = FrameSurfaces::default();
+    let mut surface_bytes = Vec::new();
     // Last: a frame subscriber tells the realtime source that this stage is ready.
     let frames = ctx.subscribe::<u8>(topics::FRAME)?;
     let state = ctx.state();
@@ -75,6 +89,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             continue;
         }
         let mut axes = None;
+        let mut extracted = false;
         if use_manhattan {
             // Lockstep: the pose of frame k-1 was published before frame k, but a
             // restarted stage may see the frame before the pose topic's history.
@@ -123,6 +138,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                             &frame_lines,
                             predicted.rotation.as_ref(),
                         )
+                        .inspect(|_| extracted = true)
                         .unwrap_or_else(|e| {
                             tracing::warn!(frame = id, "planes: {e}");
                             None
@@ -140,6 +156,22 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             Some(a) => publisher.publish_slice(&header, &[WireManhattan::new(a)])?,
             None => publisher.publish_slice(&header, &[])?,
         };
+        if let Some(surfaces_publisher) = &surfaces_publisher {
+            // A frame whose extraction failed sends empty surfaces: the tracker's join
+            // waits for this part of every frame.
+            structure.surfaces(
+                send_planes && extracted,
+                send_depth && extracted,
+                &mut surfaces,
+            );
+            match encode_message(&surfaces, &mut surface_bytes) {
+                Ok(_) => surfaces_publisher.publish_slice(&header, &surface_bytes)?,
+                Err(e) => {
+                    tracing::warn!(frame = id, "planes: cannot encode the surfaces: {e}");
+                    surfaces_publisher.publish_slice(&header, &[])?
+                }
+            };
+        }
         ctx.made(id);
         let history = structure.previous_axes().copied();
         state.write(CHECKPOINT, &(id, history), &mut scratch)?;

@@ -1,4 +1,5 @@
-//! `tracker`: joins the points, lines and Manhattan axes of each frame, tracks it
+//! `tracker`: joins the points, lines and Manhattan axes of each frame (and its planes
+//! and depth grid when `[tracking] use_planes` / `use_depth_alignment`), tracks it
 //! (the tracking half of the odometry), asks the mapper for keyframes and publishes the
 //! pose. Lockstep: a keyframe's pose is published after the mapper answered, as the
 //! in-process odometry does, so both give the same trajectory.
@@ -10,10 +11,10 @@ use crate::state::StateDir;
 use crate::wire::{WireKeyPoint, WireLine, WireManhattan, WirePose};
 use gfs_ipc::{
     MAX_VARIABLE_MESSAGE_BYTES, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
-    encode_message, topics,
+    decode_message, encode_message, topics,
 };
-use gfs_odometry::TrackingStatus;
 use gfs_odometry::session::{MapUpdate, TrackingCheckpoint, TrackingSession};
+use gfs_odometry::{FrameSurfaces, TrackingStatus};
 use std::time::Instant;
 
 /// The checkpoint: motion model, reference keyframe, counters ([`TrackingCheckpoint`]).
@@ -24,6 +25,8 @@ struct Ports<S: Service> {
     points: TopicSubscriber<S, WireKeyPoint>,
     lines: TopicSubscriber<S, WireLine>,
     manhattan: TopicSubscriber<S, WireManhattan>,
+    /// The planes and depth grid, subscribed only when the tracker uses them.
+    surfaces: Option<TopicSubscriber<S, u8>>,
     maps: TopicSubscriber<S, u8>,
     poses: TopicPublisher<S, WirePose>,
     keyframes: TopicPublisher<S, u8>,
@@ -51,15 +54,21 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         TrackingSession::new(config.odometry(), camera, scale, levels, &config.lines.grid);
     let state = ctx.state();
     let mut next_frame = resume(&state, &mut session)?;
+    let surfaces_expected = config.tracking.use_planes || config.tracking.use_depth_alignment;
     let ports = Ports {
         points: ctx.subscribe(topics::POINTS)?,
         lines: ctx.subscribe(topics::LINES)?,
         manhattan: ctx.subscribe(topics::MANHATTAN)?,
+        surfaces: if surfaces_expected {
+            Some(ctx.subscribe(topics::SURFACES)?)
+        } else {
+            None
+        },
         maps: ctx.subscribe(topics::LOCAL_MAP)?,
         poses: ctx.publish(topics::POSE, 1)?,
         keyframes: ctx.publish(topics::KEYFRAME, 1 << 20)?,
     };
-    let mut join = FrameJoin::default();
+    let mut join = FrameJoin::new(surfaces_expected);
     let mut outstanding: Option<Outstanding> = None;
     let mut scratch = Vec::new();
     while !ctx.stopping() {
@@ -84,6 +93,10 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                 Part::Points => ports.points.wait(POLL)?,
                 Part::Lines => ports.lines.wait(POLL)?,
                 Part::Manhattan => ports.manhattan.wait(POLL)?,
+                Part::Surfaces => match &ports.surfaces {
+                    Some(surfaces) => surfaces.wait(POLL)?,
+                    None => ports.points.wait(POLL)?,
+                },
             };
             continue;
         };
@@ -184,6 +197,22 @@ fn receive_features<S: Service>(
     while let Some(s) = ports.manhattan.receive()? {
         if s.user_header().frame_id >= next_frame {
             join.add_manhattan(s.user_header(), s.payload());
+        }
+    }
+    if let Some(surfaces) = &ports.surfaces {
+        while let Some(s) = surfaces.receive()? {
+            let id = s.user_header().frame_id;
+            if id >= next_frame {
+                let decoded =
+                    decode_message::<FrameSurfaces>(s.payload(), MAX_VARIABLE_MESSAGE_BYTES)
+                        .unwrap_or_else(|e| {
+                            if !s.payload().is_empty() {
+                                tracing::warn!(frame = id, "tracker: bad surfaces message: {e}");
+                            }
+                            FrameSurfaces::default()
+                        });
+                join.add_surfaces(s.user_header(), decoded);
+            }
         }
     }
     Ok(())

@@ -43,6 +43,8 @@ pub fn run(
         odometry_config.tracking.use_lines,
         odometry_config.tracking.use_manhattan,
     )?;
+    frontend.set_keep_depth(odometry_config.tracking.use_depth_alignment);
+    frontend.set_keep_planes(odometry_config.tracking.use_planes);
     let levels =
         u8::try_from(config.points.levels).map_err(|_| "points.levels must be below 256")?;
     let mut odometry = Odometry::new(

@@ -1,0 +1,310 @@
+//! Projective point-to-plane association of a frame's depth with the last frame's
+//! (the depth geometry term of tracking, issue 17).
+//!
+//! The reference is the reference keyframe's depth at its pose in the map (`[tracking.
+//! depth] keyframe_reference`, the default): frame-to-keyframe, the depth term does not
+//! add up the frames' errors as frame-to-frame alignment does, and the local BA's
+//! refinements of the keyframe reach the frame; the last frame (the nearest view) serves
+//! when the keyframe's depth was not kept (a keyframe made of an earlier frame than the
+//! last, as in the realtime pipeline).
+//!
+//! Each sampled node `q` of the frame's [`DepthGrid`] is moved into the last frame with
+//! the current estimate, projected, and paired with the last frame's node at that pixel
+//! when they are close and their normals agree. The distance is weighed with the
+//! Kinect depth noise of both ends, `sigma_z(z) = 0.0012 + 0.0019 (z - 0.4)^2` m
+//! (Nguyen, Izadi and Lovell, 3DIMPVT 2012).
+
+use crate::depth_grid::DepthGrid;
+use gfs_core::camera::PinholeCamera;
+use gfs_optim::DepthObservation;
+use gfs_optim::residuals::PointToPlane;
+use nalgebra::{Isometry3, Matrix6, Point3};
+use serde::Deserialize;
+
+/// Parameters of the depth alignment (the odometry's TOML table `[tracking.depth]`).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DepthAlignmentConfig {
+    /// Every `source_step`-th node of the frame's grid (rows and columns) is aligned;
+    /// default 2 (a 16 px grid: 1200 points of a VGA frame).
+    pub source_step: usize,
+    /// Association gates of the successive passes, metres: a point farther than this
+    /// from its reference node is not paired; coarse to fine, one re-association and
+    /// pose optimisation per entry; default [0.08, 0.03, 0.015].
+    pub max_distance_m: Vec<f64>,
+    /// Largest angle between paired normals, degrees; default 30.
+    pub max_normal_angle_deg: f64,
+    /// Lever arm that makes rotations comparable with translations in the
+    /// constraint analysis, metres; default 2.0 (a room's depth).
+    pub lever_arm_m: f64,
+    /// A pose direction whose standard deviation (metres at the lever arm) exceeds this
+    /// is unconstrained: the frame is `degraded`; default 0.015 (1 cm flagged 20 frames
+    /// of the synthetic low-texture fast seed 2 with 75 points, 14 lines and the depth,
+    /// at 1.0-1.2 cm; 1.5 cm changes no other sequence but the lost rotation seed 1).
+    pub max_sigma_m: f64,
+    /// The depth term is added to a frame tracked on features when the features alone
+    /// leave a direction with a standard deviation above this, metres; 0 = always;
+    /// default 0.002 (always: TUM fr1 0.0151 m and 7-Scenes 0.0344 m instead of 0.0115
+    /// and 0.0208 m, the real depth's bias weighs against well-placed features).
+    pub weak_sigma_m: f64,
+    /// Align with the reference keyframe's depth (at its pose in the map) instead of
+    /// the last frame's; default true (synthetic low-texture slow seed 3: 3.1 mm
+    /// instead of 7.7, rotation seed 3: 3.2 instead of 5.8; TUM fr1 0.0120 m instead of
+    /// 0.0115, 7-Scenes 0.0208 m both).
+    pub keyframe_reference: bool,
+}
+
+impl Default for DepthAlignmentConfig {
+    fn default() -> Self {
+        Self {
+            source_step: 2,
+            max_distance_m: vec![0.08, 0.03, 0.015],
+            max_normal_angle_deg: 30.0,
+            lever_arm_m: 2.0,
+            max_sigma_m: 0.015,
+            weak_sigma_m: 0.002,
+            keyframe_reference: true,
+        }
+    }
+}
+
+/// Standard deviation of a Kinect depth measurement at `z` metres.
+pub fn kinect_depth_sigma(z: f64) -> f64 {
+    0.0012 + 0.0019 * (z - 0.4).powi(2)
+}
+
+/// The information a frame's depth would give its own pose, were every sampled node
+/// paired with itself: whether its surfaces can determine a pose at all (a frame of
+/// one wall cannot).
+pub fn self_information(config: &DepthAlignmentConfig, grid: &DepthGrid) -> Matrix6<f64> {
+    let mut h = Matrix6::zeros();
+    let step = config.source_step.max(1);
+    let width = grid.width as usize;
+    for j in (step / 2..grid.height as usize).step_by(step) {
+        for i in (step / 2..width).step_by(step) {
+            if let Some((q, n)) = grid.node(j * width + i) {
+                let l =
+                    PointToPlane { point_in_camera: q }.linearize(&Isometry3::identity(), &q, &n);
+                h += l.d_pose.transpose() * l.d_pose / (2.0 * kinect_depth_sigma(q.z).powi(2));
+            }
+        }
+    }
+    h
+}
+
+/// Pairs a frame's depth nodes with the reference frame's surface elements.
+#[derive(Debug, Default)]
+pub struct DepthAssociator {
+    observations: Vec<DepthObservation>,
+}
+
+impl DepthAssociator {
+    /// The pairs of `current` (at `current_from_world`) with `reference` (at
+    /// `reference_from_world`) within `max_distance_m`, as world-frame observations.
+    #[allow(clippy::too_many_arguments)]
+    pub fn associate(
+        &mut self,
+        config: &DepthAlignmentConfig,
+        camera: &PinholeCamera,
+        current: &DepthGrid,
+        current_from_world: &Isometry3<f64>,
+        reference: &DepthGrid,
+        reference_from_world: &Isometry3<f64>,
+        max_distance_m: f64,
+    ) -> &[DepthObservation] {
+        self.observations.clear();
+        let world_from_reference = reference_from_world.inverse();
+        let reference_from_current = reference_from_world * current_from_world.inverse();
+        let min_cos = config.max_normal_angle_deg.to_radians().cos();
+        let step = config.source_step.max(1);
+        let width = current.width as usize;
+        for j in (step / 2..current.height as usize).step_by(step) {
+            for i in (step / 2..width).step_by(step) {
+                let Some((q, q_normal)) = current.node(j * width + i) else {
+                    continue;
+                };
+                let in_reference = reference_from_current * Point3::from(q);
+                let Some(uv) = camera.project(&in_reference) else {
+                    continue;
+                };
+                let Some((s, n)) = reference.at_pixel(uv.x, uv.y) else {
+                    continue;
+                };
+                // Along the normal within the gate; across it, within the gate plus a
+                // node's footprint (the node is its block's mean point, not the pixel's).
+                let offset = in_reference.coords - s;
+                let footprint = f64::from(reference.stride_px) * s.z / camera.fx;
+                if n.dot(&offset).abs() > max_distance_m
+                    || offset.norm() > max_distance_m + footprint
+                    || (reference_from_current.rotation * q_normal).dot(&n) < min_cos
+                {
+                    continue;
+                }
+                // The sensor noise of both ends, and the pass's association uncertainty:
+                // a coarse pass pairs points up to its gate apart, and a tight chi-square
+                // test would reject the only pairs of a weakly seen direction.
+                let sigma2 = kinect_depth_sigma(q.z).powi(2)
+                    + kinect_depth_sigma(s.z).powi(2)
+                    + (max_distance_m / 3.0).powi(2);
+                self.observations.push(DepthObservation {
+                    point_in_camera: q,
+                    surface_in_world: (world_from_reference * Point3::from(s)).coords,
+                    normal_in_world: world_from_reference.rotation * n,
+                    inv_sigma2: 1.0 / sigma2,
+                });
+            }
+        }
+        &self.observations
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::{CORNER, planes_depth};
+
+    /// A grid of the plane z = `depth` seen from the identity, normals towards the
+    /// camera.
+    fn wall(camera: &PinholeCamera, depth: f32) -> DepthGrid {
+        let stride = 8u32;
+        let (w, h) = (camera.width as u32 / stride, camera.height as u32 / stride);
+        let mut grid = DepthGrid {
+            stride_px: stride,
+            width: w,
+            height: h,
+            ..DepthGrid::default()
+        };
+        for j in 0..h {
+            for i in 0..w {
+                let (u, v) = (
+                    (i * stride + stride / 2) as f64,
+                    (j * stride + stride / 2) as f64,
+                );
+                let x = (u - camera.cx) / camera.fx * f64::from(depth);
+                let y = (v - camera.cy) / camera.fy * f64::from(depth);
+                grid.points.push([x as f32, y as f32, depth]);
+                grid.normals.push([0.0, 0.0, -1.0]);
+            }
+        }
+        grid
+    }
+
+    #[test]
+    fn a_corner_determines_a_pose_and_a_corridor_leaves_its_axis_free() {
+        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let config = DepthAlignmentConfig::default();
+        let analyse = |grid: &DepthGrid| {
+            gfs_optim::analyse_constraint(
+                &self_information(&config, grid),
+                config.lever_arm_m,
+                config.max_sigma_m,
+            )
+        };
+        let corner = planes_depth(&camera, &Isometry3::identity(), &CORNER);
+        assert!(analyse(&corner).is_determined());
+        let walls = [([1.0, 0.0, 0.0], -1.0), ([1.0, 0.0, 0.0], 1.0)];
+        let corridor = analyse(&planes_depth(&camera, &Isometry3::identity(), &walls));
+        // Free: along the corridor (z), up (y) and the roll about the walls' normal (x).
+        assert_eq!(corridor.unconstrained.len(), 3, "{corridor:?}");
+        for d in &corridor.unconstrained {
+            assert!(
+                d[0].abs() < 1e-6 && d[4].abs() < 1e-6 && d[5].abs() < 1e-6,
+                "{d}"
+            );
+        }
+    }
+
+    #[test]
+    fn three_planes_alone_give_the_frame_to_frame_motion() {
+        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let config = DepthAlignmentConfig::default();
+        let last_pose = Isometry3::identity();
+        let last = planes_depth(&camera, &last_pose, &CORNER);
+        // 2 cm and 1.5 degrees about a tilted axis, from the last pose as prediction.
+        let truth = gfs_core::se3::exp(&nalgebra::Vector6::new(
+            0.02, -0.01, 0.015, 0.01, 0.02, -0.012,
+        ));
+        let current = planes_depth(&camera, &truth, &CORNER);
+        let mut pose = last_pose;
+        let mut associator = DepthAssociator::default();
+        let mut result = gfs_optim::PoseResult::default();
+        for gate in &config.max_distance_m {
+            let pairs =
+                associator.associate(&config, &camera, &current, &pose, &last, &last_pose, *gate);
+            gfs_optim::optimize_pose_with_depth(
+                &camera,
+                &pose,
+                &[],
+                &[],
+                gfs_optim::SurfaceObservations {
+                    depth: pairs,
+                    planes: &[],
+                },
+                &gfs_optim::PoseOptimizerConfig::default(),
+                &mut result,
+            );
+            pose = result.camera_from_world;
+        }
+        let error = pose * truth.inverse();
+        assert!(error.translation.vector.norm() < 1e-3, "{error}");
+        assert!(
+            error.rotation.angle() < 0.1f64.to_radians(),
+            "{}",
+            error.rotation.angle().to_degrees()
+        );
+    }
+
+    #[test]
+    fn a_shifted_wall_pairs_every_node_within_the_gate_with_its_distance() {
+        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let reference = wall(&camera, 2.0);
+        // The frame 2 cm closer to the wall sees it at 1.98 m.
+        let current = wall(&camera, 1.98);
+        let current_from_world = Isometry3::translation(0.0, 0.0, -0.02);
+        let config = DepthAlignmentConfig::default();
+        let mut associator = DepthAssociator::default();
+        let pairs = associator.associate(
+            &config,
+            &camera,
+            &current,
+            &Isometry3::identity(),
+            &reference,
+            &Isometry3::identity(),
+            0.05,
+        );
+        assert_eq!(pairs.len(), 40 * 30);
+        for pair in pairs {
+            let e = gfs_optim::residuals::PointToPlane {
+                point_in_camera: pair.point_in_camera,
+            }
+            .error(
+                &Isometry3::identity(),
+                &pair.surface_in_world,
+                &pair.normal_in_world,
+            );
+            assert!((e - 0.02).abs() < 1e-6, "{e}");
+            let sigma = (2.0 * 0.0060f64.powi(2) + (0.05f64 / 3.0).powi(2)).sqrt();
+            assert!((pair.inv_sigma2.sqrt().recip() - sigma).abs() < 1e-3);
+            let at_truth = gfs_optim::residuals::PointToPlane {
+                point_in_camera: pair.point_in_camera,
+            }
+            .error(
+                &current_from_world,
+                &pair.surface_in_world,
+                &pair.normal_in_world,
+            );
+            assert!(at_truth.abs() < 1e-6, "{at_truth}");
+        }
+        // A 1 cm gate pairs nothing.
+        let none = associator.associate(
+            &config,
+            &camera,
+            &current,
+            &Isometry3::identity(),
+            &reference,
+            &Isometry3::identity(),
+            0.01,
+        );
+        assert!(none.is_empty());
+    }
+}

@@ -1,0 +1,240 @@
+//! The depth term of tracking (`[tracking] use_depth_alignment`): the frame's depth
+//! aligned with the reference keyframe's (or the last frame's), point to plane, inside
+//! the pose optimisation; and the frame's status from what the combined constraints
+//! determine.
+
+use super::{TrackedFrame, Tracker};
+use crate::depth_grid::DepthGrid;
+use crate::map::Map;
+use crate::status::TrackingStatus;
+use gfs_core::ids::KeyFrameId;
+use gfs_optim::analyse_constraint;
+use nalgebra::Isometry3;
+
+/// Share of the associated depth pairs that must stay inliers for a frame tracked on
+/// depth alone: below it the prediction was too far off for the association.
+const MIN_DEPTH_INLIER_SHARE: f64 = 0.5;
+
+impl Tracker {
+    /// Re-optimises a frame tracked on features with the depth pairs added, in the
+    /// coarse-to-fine passes of `[tracking.depth] max_distance_m`; skipped when the
+    /// features alone constrain every direction within `weak_sigma_m`. False when the
+    /// depth could not be used (no depth, no last frame).
+    pub(super) fn refine_with_depth(&mut self, map: &Map, frame: &mut TrackedFrame) -> bool {
+        let depth = &self.config.depth;
+        if depth.weak_sigma_m > 0.0
+            && analyse_constraint(
+                self.solver.information(),
+                depth.lever_arm_m,
+                depth.weak_sigma_m,
+            )
+            .is_determined()
+        {
+            return false;
+        }
+        self.align_depth(map, frame)
+    }
+
+    /// Tracks a frame the features lost on its planes and depth alone (each when
+    /// switched on), from its current (predicted) pose and no matches; true when enough
+    /// depth pairs held, or planes did, and together they determine the pose (a
+    /// direction they leave free would drift where the optimiser let it).
+    pub(super) fn track_on_geometry(&mut self, map: &Map, frame: &mut TrackedFrame) -> bool {
+        if self.config.use_planes {
+            self.refine_with_planes(map, frame);
+        }
+        let depth_ok = self.config.use_depth_alignment
+            && self.align_depth(map, frame)
+            && frame.inliers.depth > 0
+            && frame.inliers.depth as f64 >= MIN_DEPTH_INLIER_SHARE * self.depth_pairs as f64;
+        self.keep_plane_inliers(frame);
+        self.clear_planes();
+        (depth_ok || frame.inliers.planes > 0)
+            && self.status_from_information() == TrackingStatus::Tracked
+    }
+
+    /// The coarse-to-fine association and optimisation passes, against the reference
+    /// keyframe's depth or the last frame's ([`depth_reference`]).
+    fn align_depth(&mut self, map: &Map, frame: &mut TrackedFrame) -> bool {
+        self.update_keyframe_depth(map);
+        for pass in 0..self.config.depth.max_distance_m.len() {
+            let Some((reference, reference_from_world)) = depth_reference(
+                self.config.depth.keyframe_reference,
+                self.keyframe_depth.as_ref(),
+                self.reference,
+                self.last.as_ref(),
+                map,
+            ) else {
+                return false;
+            };
+            if frame.features.depth.is_empty() {
+                return false;
+            }
+            let pairs = self.depth_associator.associate(
+                &self.config.depth,
+                &self.camera,
+                &frame.features.depth,
+                &frame.camera_from_world,
+                reference,
+                &reference_from_world,
+                self.config.depth.max_distance_m[pass],
+            );
+            self.depth_pairs = pairs.len();
+            self.solver.set_depth(pairs);
+            self.optimise(map, frame);
+        }
+        self.solver.set_depth(&[]);
+        true
+    }
+
+    /// Keeps the depth of the reference keyframe: when the reference changed to the
+    /// keyframe made of the last frame, that frame's depth is copied (a keyframe does not
+    /// keep its depth in the map).
+    fn update_keyframe_depth(&mut self, map: &Map) {
+        if !self.config.depth.keyframe_reference {
+            return;
+        }
+        let Some(reference) = self.reference else {
+            return;
+        };
+        if self
+            .keyframe_depth
+            .as_ref()
+            .is_some_and(|(kf, _)| *kf == reference)
+        {
+            return;
+        }
+        let Some(last) = self.last.as_ref() else {
+            return;
+        };
+        let made_of_last = map
+            .keyframe(reference)
+            .is_some_and(|k| k.features.id == last.features.id);
+        if made_of_last && !last.features.depth.is_empty() {
+            let mut grid = self
+                .keyframe_depth
+                .take()
+                .map(|(_, g)| g)
+                .unwrap_or_default();
+            grid.clone_from(&last.features.depth);
+            self.keyframe_depth = Some((reference, grid));
+        }
+    }
+
+    /// `Degraded` when the last optimisation's information leaves a pose direction
+    /// with a standard deviation above `[tracking.depth] max_sigma_m`, else `Tracked`.
+    pub(super) fn status_from_information(&self) -> TrackingStatus {
+        let depth = &self.config.depth;
+        let constraint = analyse_constraint(
+            self.solver.information(),
+            depth.lever_arm_m,
+            depth.max_sigma_m,
+        );
+        tracing::debug!(
+            worst_sigma_m = constraint.worst_sigma_m,
+            pairs = self.depth_pairs,
+            "pose constraint"
+        );
+        if constraint.is_determined() {
+            TrackingStatus::Tracked
+        } else {
+            TrackingStatus::Degraded
+        }
+    }
+}
+
+/// The depth the frame is aligned with, and its pose: with `[tracking.depth]
+/// keyframe_reference`, the reference keyframe's (at its pose in the map, which the local
+/// BA refines: the frame is tied to the map, not to the last frame's drift), else, or
+/// when that depth was not kept, the last frame's.
+fn depth_reference<'a>(
+    keyframe_reference: bool,
+    keyframe_depth: Option<&'a (KeyFrameId, DepthGrid)>,
+    reference: Option<KeyFrameId>,
+    last: Option<&'a TrackedFrame>,
+    map: &Map,
+) -> Option<(&'a DepthGrid, Isometry3<f64>)> {
+    if keyframe_reference
+        && let Some((kf, grid)) = keyframe_depth
+        && Some(*kf) == reference
+        && let Some(keyframe) = map.keyframe(*kf)
+    {
+        return Some((grid, keyframe.camera_from_world));
+    }
+    let last = last?;
+    (!last.features.depth.is_empty()).then_some((&last.features.depth, last.camera_from_world))
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::config::TrackingConfig;
+    use crate::frame::FrameFeatures;
+    use crate::map::Map;
+    use crate::sightings::Sightings;
+    use crate::status::TrackingStatus;
+    use crate::testing::{CORNER, camera, planes_depth, scale};
+    use crate::tracker::{TrackedFrame, Tracker};
+    use gfs_core::ids::FrameId;
+    use gfs_lines::grid::GridConfig;
+    use nalgebra::{Isometry3, Vector6};
+
+    fn tracker() -> Tracker {
+        let config = TrackingConfig {
+            use_depth_alignment: true,
+            ..TrackingConfig::default()
+        };
+        Tracker::new(config, camera(), scale(), &GridConfig::default())
+    }
+
+    fn frame(
+        k: u64,
+        camera_from_world: &Isometry3<f64>,
+        planes: &[([f64; 3], f64)],
+    ) -> FrameFeatures {
+        FrameFeatures {
+            id: FrameId(k),
+            timestamp: k as f64 / 30.0,
+            depth: planes_depth(&camera(), camera_from_world, planes),
+            ..FrameFeatures::default()
+        }
+    }
+
+    #[test]
+    fn three_planes_alone_are_tracked_frame_after_frame() {
+        // No point, no line: a floor and two walls, the camera moving 1 cm and 0.6
+        // degrees per frame about a tilted axis.
+        let mut tracker = tracker();
+        let map = Map::default();
+        let step = gfs_core::se3::exp(&Vector6::new(0.01, -0.004, 0.006, 0.004, 0.008, -0.005));
+        let mut truth = Isometry3::identity();
+        let mut first = TrackedFrame::untracked(frame(0, &truth, &CORNER), truth);
+        first.status = TrackingStatus::Tracked;
+        tracker.finish_frame(first);
+        let mut sightings = Sightings::default();
+        for k in 1..8 {
+            truth = step * truth;
+            let tracked = tracker.track(&map, frame(k, &truth, &CORNER), &mut sightings);
+            let error = tracked.camera_from_world * truth.inverse();
+            assert_eq!(tracked.status, TrackingStatus::Tracked, "frame {k}");
+            assert!(error.translation.vector.norm() < 1e-3, "frame {k}: {error}");
+            assert!(error.rotation.angle() < 0.1f64.to_radians(), "frame {k}");
+            tracker.finish_frame(tracked);
+        }
+    }
+
+    #[test]
+    fn two_parallel_walls_do_not_track_a_frame_on_depth() {
+        // A corridor's two walls (x = -1, x = 1) leave its axis free: the frame keeps
+        // the prediction instead of a pose along an unconstrained direction.
+        let walls = [([1.0, 0.0, 0.0], -1.0), ([1.0, 0.0, 0.0], 1.0)];
+        let mut tracker = tracker();
+        let map = Map::default();
+        let start = Isometry3::identity();
+        let mut first = TrackedFrame::untracked(frame(0, &start, &walls), start);
+        first.status = TrackingStatus::Tracked;
+        tracker.finish_frame(first);
+        let moved = Isometry3::translation(0.0, 0.0, -0.02);
+        let tracked = tracker.track(&map, frame(1, &moved, &walls), &mut Sightings::default());
+        assert_eq!(tracked.status, TrackingStatus::Predicted);
+    }
+}
