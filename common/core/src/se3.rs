@@ -21,8 +21,9 @@ pub fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }
 
-/// The left Jacobian V(phi) of SO(3), which maps `rho` to the translation of `exp(xi)`.
-fn left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
+/// The left Jacobian V(phi) of SO(3), which maps `rho` to the translation of `exp(xi)`
+/// (and `exp(phi + d) ~ exp(V(phi) d) exp(phi)`).
+pub fn left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
     let theta = phi.norm();
     let k = skew(phi);
     if theta < SMALL_ANGLE {
@@ -35,7 +36,7 @@ fn left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// Inverse of [`left_jacobian`].
-fn left_jacobian_inverse(phi: &Vector3<f64>) -> Matrix3<f64> {
+pub fn left_jacobian_inverse(phi: &Vector3<f64>) -> Matrix3<f64> {
     let theta = phi.norm();
     let k = skew(phi);
     if theta < SMALL_ANGLE {

@@ -24,6 +24,9 @@
 //! a virtual disparity `bf / depth` to the 2D error, which fixes depth and scale; the
 //! local BA weighs it by the sensor's inverse-depth sigma.
 //!
+//! Loop closure ([`PoseGraph`]) optimises keyframe poses `T_wc` alone over relative-pose
+//! edges `e = log(Z^-1 T_i^-1 T_j)` with the same left perturbation and sparse solver.
+//!
 //! The error terms live in [`residuals`], one per file, each with analytic Jacobians
 //! checked against numeric differences. The local BA solves each LM step exactly by
 //! the Schur complement (points and unpaired lines eliminated, structurally paired
@@ -56,6 +59,7 @@
 mod ba;
 mod lm;
 mod pose;
+mod pose_graph;
 pub mod residuals;
 pub mod robust;
 
@@ -64,3 +68,6 @@ pub use ba::{
     BaPose, BaProblem, BaResult, LocalBundleAdjuster, ONE_DEGREE_INFORMATION,
 };
 pub use pose::{LineObservation, PointObservation, PoseOptimizerConfig, PoseResult, optimize_pose};
+pub use pose_graph::{
+    CHI2_6DOF_95, PoseGraph, PoseGraphConfig, PoseGraphError, PoseGraphKernel, PoseGraphReport,
+};
