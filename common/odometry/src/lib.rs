@@ -31,6 +31,7 @@ mod frame;
 mod frontend;
 mod keyframe_policy;
 mod local_ba;
+pub mod loop_closing;
 mod manhattan;
 pub mod map;
 mod mapper;
@@ -51,7 +52,9 @@ mod testing;
 mod tracker;
 mod validate;
 
-pub use config::{KeyframeConfig, MappingConfig, OdometryConfig, TrackingConfig};
+pub use config::{
+    KeyframeConfig, LoopClosingConfig, MappingConfig, OdometryConfig, TrackingConfig,
+};
 pub use frame::{FeatureError, FrameFeatures};
 pub use frontend::{Frontend, FrontendError, FrontendTimings, StructureExtractor};
 pub use keyframe_policy::{KeyframeContext, needs_keyframe};
@@ -59,7 +62,7 @@ pub use manhattan::WorldManhattan;
 pub use mapper::Mapper;
 pub use messages_check::MessageError;
 pub use motion::MotionModel;
-pub use odometry::{Odometry, OdometryTimings};
+pub use odometry::{FrameAnchor, Odometry, OdometryTimings};
 pub use pose_solver::Inliers;
 pub use relocalise::{Relocalisation, relocalise};
 pub use session::FramePose;

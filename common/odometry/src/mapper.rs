@@ -250,6 +250,19 @@ impl Mapper {
         }
     }
 
+    /// Fuses duplicates around keyframe `kf` after a loop correction brought the two
+    /// sides of the loop together: into `kf` and into each of its connected keyframes,
+    /// the points of their covisible keyframes.
+    pub fn fuse_around(&mut self, map: &mut Map, kf: KeyFrameId) {
+        let around: Vec<KeyFrameId> = std::iter::once(kf)
+            .chain(map.connected(kf).into_iter().map(|(k, _)| k))
+            .take(FUSE_NEIGHBOURS + 1)
+            .collect();
+        for k in around {
+            self.fuse(map, k);
+        }
+    }
+
     /// Projects the points of the covisible keyframes into the new one: a free keypoint
     /// that matches gets the observation; one that already has a map point is merged with
     /// it (the point with more observations survives).

@@ -4,13 +4,14 @@
 
 use crate::config::OdometryConfig;
 use crate::frame::{FeatureError, FrameFeatures};
+use crate::loop_closing::LoopClosure;
 use crate::manhattan::WorldManhattan;
 use crate::map::Map;
 use crate::session::{FramePose, MappingSession, TrackingSession};
 use gfs_core::camera::PinholeCamera;
-use gfs_core::ids::FrameId;
+use gfs_core::ids::{FrameId, KeyFrameId};
 use gfs_lines::grid::GridConfig;
-use nalgebra::Rotation3;
+use nalgebra::{Isometry3, Rotation3};
 use std::time::{Duration, Instant};
 
 /// Time spent on the last frame.
@@ -20,6 +21,17 @@ pub struct OdometryTimings {
     pub tracking: Duration,
     /// Local mapping, when the frame became a keyframe.
     pub mapping: Option<Duration>,
+}
+
+/// Where a frame sits relative to its reference keyframe: its final pose is that
+/// keyframe's final pose composed with this (as ORB-SLAM2 saves its trajectory), so
+/// that a loop closed later corrects it too.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameAnchor {
+    /// The reference keyframe.
+    pub keyframe: KeyFrameId,
+    /// `keyframe_from_camera`.
+    pub keyframe_from_camera: Isometry3<f64>,
 }
 
 /// RGB-D visual odometry over point, line and Manhattan features.
@@ -49,6 +61,36 @@ impl Odometry {
     /// The map (for inspection and tests).
     pub fn map(&self) -> &Map {
         self.mapping.map()
+    }
+
+    /// The loops closed so far.
+    pub fn loops(&self) -> &[LoopClosure] {
+        self.mapping.closures()
+    }
+
+    /// The loop corrections so far (REP 105 `map -> odom`): a frame's map pose is
+    /// `map_from_odom * FramePose::world_from_camera`.
+    pub fn map_from_odom(&self) -> &Isometry3<f64> {
+        self.tracking.map_from_odom()
+    }
+
+    /// The anchor of the frame just processed (whose published pose is `pose`), or
+    /// `None` before the first keyframe.
+    pub fn anchor(&self, pose: &FramePose) -> Option<FrameAnchor> {
+        let keyframe = self.tracking.reference()?;
+        let world_from_keyframe = self.tracking.map().keyframe_pose(keyframe)?;
+        let world_from_camera = self.map_from_odom() * pose.world_from_camera;
+        Some(FrameAnchor {
+            keyframe,
+            keyframe_from_camera: world_from_keyframe.inverse() * world_from_camera,
+        })
+    }
+
+    /// The current best `world_from_camera` of an anchored frame: its keyframe's pose in
+    /// the map now (after every loop correction) composed with the anchor.
+    pub fn final_pose(&self, anchor: &FrameAnchor) -> Option<Isometry3<f64>> {
+        let world_from_keyframe = self.map().keyframe_pose(anchor.keyframe)?;
+        Some(world_from_keyframe * anchor.keyframe_from_camera)
     }
 
     /// Timings of the last processed frame.

@@ -13,6 +13,7 @@ impl Map {
         canonicalise_arena(&mut self.keyframes);
         canonicalise_arena(&mut self.points.items);
         canonicalise_arena(&mut self.lines.items);
+        canonicalise_arena(&mut self.retired);
     }
 }
 

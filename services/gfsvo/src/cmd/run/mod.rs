@@ -109,7 +109,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let timestamps = &source.timestamps[..total];
     let clock = std::time::Instant::now();
 
-    let (poses, processed, timings, keyframes, restarts, covariances) = if args.mode
+    let (poses, odometry, loops, processed, timings, keyframes, restarts, covariances) = if args
+        .mode
         == RunMode::Inline
     {
         let sequence = sequence
@@ -120,6 +121,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         progress.finish_and_clear();
         if outcome.interrupted {
             write_outputs(&args.out, &outcome.poses)?;
+            write_odometry(&args.out, &outcome.odometry)?;
             return Err(interrupted(outcome.poses.len(), total, &args.out));
         }
         let timings = Timings::Inline(outcome.timings);
@@ -127,6 +129,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         let covariances = crate::pipeline::Covariances::new();
         (
             outcome.poses,
+            outcome.odometry,
+            Some(outcome.loops),
             processed,
             timings,
             outcome.keyframes,
@@ -187,8 +191,11 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
         }
         let processed = outcome.received.len();
+        // The pipeline's recorder sees the published (continuous) poses only.
         (
+            poses.clone(),
             poses,
+            None,
             processed,
             timings,
             outcome.keyframes,
@@ -199,13 +206,21 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
 
     let wall_s = clock.elapsed().as_secs_f64();
     write_outputs(&args.out, &poses)?;
+    write_odometry(&args.out, &odometry)?;
     if let Some(path) = &args.mcap {
-        super::ros2_io::record_mcap(path, &config, &poses, &covariances)?;
+        super::ros2_io::record_mcap(path, &config, &odometry, &covariances)?;
     }
     let estimated = checks::tracked_trajectory(&poses, &args.out)?;
     let evaluation = match &ground_truth {
         Some(gt) => Some(evaluate(gt, &estimated, EVO_MAX_DIFF_S)?),
         None => None,
+    };
+    let odometry_evaluation = match (&ground_truth, &loops) {
+        (Some(gt), Some(found)) if !found.is_empty() => {
+            let continuous = checks::tracked_poses(&odometry);
+            Some(evaluate(gt, &continuous, EVO_MAX_DIFF_S)?)
+        }
+        _ => None,
     };
     let mut counts = BTreeMap::<&str, usize>::new();
     for pose in &poses {
@@ -234,6 +249,12 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             object["ate_max_m"] = e.ate.stats.max.into();
             object["matched"] = e.matched().into();
         }
+        if let Some(found) = &loops {
+            object["loops"] = serde_json::to_value(found)?;
+        }
+        if let Some(e) = &odometry_evaluation {
+            object["odometry_ate_rmse_m"] = e.ate.stats.rmse.into();
+        }
         println!("{object}");
     } else {
         print_report(&dataset, &args.out, poses.len(), &counts, &timings);
@@ -244,8 +265,23 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         if let Some(r) = restarts.filter(|r| r.values().any(|n| *n > 0)) {
             println!("restarts    {r:?}");
         }
+        if let Some(found) = &loops {
+            println!("loops       {} closed", found.len());
+            for l in found {
+                println!(
+                    "            keyframe {} -> {}: {} inliers, moved {:.3} m",
+                    l.current, l.candidate, l.inliers, l.shift_m
+                );
+            }
+        }
         if let Some(e) = &evaluation {
             print_ate(e);
+        }
+        if let Some(e) = &odometry_evaluation {
+            println!(
+                "ATE RMSE {:.4} m of the continuous odometry (odometry.txt)",
+                e.ate.stats.rmse
+            );
         }
     }
     Ok(())
@@ -303,6 +339,17 @@ pub fn write_outputs(out: &Path, poses: &[FramePose]) -> CliResult<Trajectory> {
     status.flush().map_err(named)?;
     trajectory.write_tum(&out.join("trajectory.txt"))?;
     Ok(trajectory)
+}
+
+/// Writes `odometry.txt` (TUM): the poses as published, continuous (REP 105 `odom`);
+/// `trajectory.txt` holds the final best estimate, in the map frame.
+pub fn write_odometry(out: &Path, poses: &[FramePose]) -> CliResult {
+    let mut trajectory = Trajectory::new();
+    for pose in poses {
+        trajectory.push(pose.timestamp, pose.world_from_camera);
+    }
+    trajectory.write_tum(&out.join("odometry.txt"))?;
+    Ok(())
 }
 
 /// The built-in synthetic sequence, rendered into the cache on first use with a
