@@ -102,6 +102,7 @@ impl Mapper {
             features: frame.features.clone(),
             point_ids: frame.point_ids.clone(),
             line_ids: frame.line_ids.clone(),
+            loop_correction: nalgebra::Isometry3::identity(),
         };
         let kf = map.insert_keyframe(keyframe);
         for id in frame.point_ids.iter().flatten() {

@@ -90,9 +90,11 @@ pub fn correct_loop(
     let mut moved: HashMap<KeyFrameId, Isometry3<f64>> = HashMap::with_capacity(ids.len());
     for (n, kf) in ids.iter().enumerate() {
         let new = *graph.pose(n);
-        moved.insert(*kf, new * old[n].inverse());
+        let new_from_old = new * old[n].inverse();
+        moved.insert(*kf, new_from_old);
         if let Some(k) = map.keyframe_mut(*kf) {
             k.camera_from_world = new.inverse();
+            k.loop_correction = new_from_old * k.loop_correction;
         }
     }
     map.move_landmarks(|first_kf| moved.get(&first_kf).copied());

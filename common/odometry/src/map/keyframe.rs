@@ -18,6 +18,10 @@ pub struct KeyFrame {
     pub point_ids: Vec<Option<MapPointId>>,
     /// For each line, the map line it observes.
     pub line_ids: Vec<Option<MapLineId>>,
+    /// The loop corrections it received (`new_from_old`, world frame, composed):
+    /// identity until a loop closes.
+    #[serde(default = "Isometry3::identity")]
+    pub loop_correction: Isometry3<f64>,
 }
 
 impl KeyFrame {

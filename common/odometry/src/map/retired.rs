@@ -1,8 +1,8 @@
 //! Keyframes that left the map (culled as redundant, bounded out, or dropped with a
-//! lost map): a frame tracked against one still needs its final pose, so each keeps its
-//! pose relative to a keyframe that stayed (its parent), as ORB-SLAM2's spanning tree
-//! does for the trajectory it saves. A loop correction moves the parent; the retired
-//! keyframe follows it.
+//! lost map): a frame tracked against one still needs the loop corrections that came
+//! after it, so each retired keyframe stays attached to a keyframe that stayed (its
+//! parent) and follows the corrections the parent receives, as ORB-SLAM2's spanning
+//! tree does for the trajectory it saves.
 
 use super::Map;
 use gfs_core::ids::KeyFrameId;
@@ -11,13 +11,12 @@ use nalgebra::Isometry3;
 /// A keyframe no longer in the map.
 #[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 pub struct RetiredKeyFrame {
-    /// The keyframe it is anchored to (`None`: it was the last one of its map).
+    /// The keyframe it stays attached to (`None`: it was the last one of its map).
     pub parent: Option<KeyFrameId>,
-    /// `parent_from_camera` when it was removed.
-    pub parent_from_camera: Isometry3<f64>,
-    /// `world_from_camera` when it was removed (used when the chain of parents ends
-    /// outside the map).
-    pub world_from_camera: Isometry3<f64>,
+    /// The parent's loop correction when this one was retired.
+    pub parent_correction: Isometry3<f64>,
+    /// Its own loop correction when it was retired.
+    pub correction: Isometry3<f64>,
 }
 
 /// Longest chain of parents followed (a chain is acyclic: a parent was in the map when
@@ -30,43 +29,46 @@ impl Map {
         let Some(keyframe) = self.keyframes.get(&id) else {
             return;
         };
-        let world_from_camera = keyframe.world_from_camera();
+        let correction = keyframe.loop_correction;
         let parent = self
             .covisible(id, 1)
             .first()
             .map(|(k, _)| *k)
             .or_else(|| self.keyframe_ids().into_iter().rev().find(|k| *k != id));
-        let parent_from_camera = parent
+        let parent_correction = parent
             .and_then(|p| self.keyframes.get(&p))
-            .map_or(Isometry3::identity(), |p| {
-                p.camera_from_world * world_from_camera
-            });
+            .map_or(Isometry3::identity(), |p| p.loop_correction);
         self.retired.insert(
             id,
             RetiredKeyFrame {
                 parent,
-                parent_from_camera,
-                world_from_camera,
+                parent_correction,
+                correction,
             },
         );
     }
 
-    /// The current best `world_from_camera` of a keyframe in the map or retired from
-    /// it; `None` for an id never seen.
-    pub fn keyframe_pose(&self, id: KeyFrameId) -> Option<Isometry3<f64>> {
-        let mut chain = Isometry3::identity();
+    /// The loop corrections (`new_from_old`, world frame) a keyframe in the map or
+    /// retired from it has received so far; `None` for an id never seen. A retired
+    /// keyframe receives what its parent received after it was retired.
+    pub fn keyframe_correction(&self, id: KeyFrameId) -> Option<Isometry3<f64>> {
+        // Corrections since retirement, collected along the chain of parents.
+        let mut after = Isometry3::identity();
         let mut at = id;
         for _ in 0..MAX_CHAIN {
             if let Some(k) = self.keyframes.get(&at) {
-                return Some(k.world_from_camera() * chain);
+                return Some(k.loop_correction * after);
             }
             let retired = self.retired.get(&at)?;
-            match retired.parent {
+            let resolved = retired
+                .parent
+                .filter(|p| self.keyframes.contains_key(p) || self.retired.contains_key(p));
+            match resolved {
                 Some(parent) => {
-                    chain = retired.parent_from_camera * chain;
+                    after = retired.parent_correction.inverse() * retired.correction * after;
                     at = parent;
                 }
-                None => return Some(retired.world_from_camera * chain),
+                None => return Some(retired.correction * after),
             }
         }
         None

@@ -55,6 +55,7 @@ fn keyframe(n: usize) -> KeyFrame {
         camera_from_world: Isometry3::identity(),
         point_ids: vec![None; n],
         line_ids: Vec::new(),
+        loop_correction: Isometry3::identity(),
         features: crate::frame::FrameFeatures {
             id: FrameId(0),
             ..features
@@ -186,6 +187,7 @@ fn covisibility_counts_shared_landmarks_and_connected_keeps_the_strong_ones() {
         features: frame.features.clone(),
         point_ids: frame.point_ids.clone(),
         line_ids: frame.line_ids.clone(),
+        loop_correction: Isometry3::identity(),
     });
     assert_eq!(map.covisible(k0, 1), vec![(k1, 22)]);
     assert_eq!(map.covisible(k0, 23), Vec::new());

@@ -41,6 +41,8 @@ pub struct PipelineOptions {
     pub no_lines: bool,
     /// See `no_lines`.
     pub no_manhattan: bool,
+    /// See `no_lines`.
+    pub no_loop_closing: bool,
     /// The run id (iceoryx2 prefix).
     pub run_id: RunId,
     /// Log filter of the stage processes.
@@ -264,6 +266,9 @@ fn stage_args(options: &PipelineOptions) -> Vec<OsString> {
     }
     if options.no_manhattan {
         args.push("--no-manhattan".into());
+    }
+    if options.no_loop_closing {
+        args.push("--no-loop-closing".into());
     }
     args
 }

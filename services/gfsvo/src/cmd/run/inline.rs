@@ -118,9 +118,7 @@ pub fn run(
         .zip(&anchors)
         .map(|(pose, anchor)| FramePose {
             world_from_camera: match anchor {
-                Anchor::KeyFrame(a) => odometry
-                    .final_pose(a)
-                    .unwrap_or(odometry.map_from_odom() * pose.world_from_camera),
+                Anchor::KeyFrame(a) => odometry.final_pose(a),
                 Anchor::Map(p) => *p,
             },
             ..*pose

@@ -64,6 +64,9 @@ pub struct RunArgs {
     /// Ablation: run without Manhattan axes.
     #[arg(long)]
     pub no_manhattan: bool,
+    /// Ablation: run without loop closing.
+    #[arg(long)]
+    pub no_loop_closing: bool,
     /// Print the summary as one JSON object (ATE, frames per status, timings).
     #[arg(long)]
     pub json: bool,
@@ -91,6 +94,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let mut config = Config::load(args.config.as_deref(), &dataset)?;
     config.tracking.use_lines &= !args.no_lines;
     config.tracking.use_manhattan &= !args.no_manhattan;
+    config.loop_closing.enabled &= !args.no_loop_closing;
     if args.mcap.is_some() && args.mode == RunMode::Inline {
         return Err(
             "--mcap records the pose covariances of the pipeline modes, not of inline".into(),
@@ -162,6 +166,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             config_path: source.config_path.clone(),
             no_lines: args.no_lines,
             no_manhattan: args.no_manhattan,
+            no_loop_closing: args.no_loop_closing,
             run_id,
             log: log.to_owned(),
             threads: args.mode == RunMode::Threads,
