@@ -27,6 +27,7 @@
 #![warn(missing_docs)]
 
 mod config;
+mod final_trajectory;
 mod frame;
 mod frontend;
 mod keyframe_policy;
@@ -55,6 +56,7 @@ mod validate;
 pub use config::{
     KeyframeConfig, LoopClosingConfig, MappingConfig, OdometryConfig, TrackingConfig,
 };
+pub use final_trajectory::FinalTrajectory;
 pub use frame::{FeatureError, FrameFeatures};
 pub use frontend::{Frontend, FrontendError, FrontendTimings, StructureExtractor};
 pub use keyframe_policy::{KeyframeContext, needs_keyframe};

@@ -103,6 +103,10 @@ pub struct TrackingSession {
     requests: RequestLedger,
     frames_since_keyframe: u32,
     map_from_odom: Isometry3<f64>,
+    /// `camera_from_world` of the frame of the pending keyframe request, as tracked: the
+    /// exact old pose of the keyframe the answer creates (not checkpointed; a restarted
+    /// tracker falls back on the keyframes both maps hold).
+    requested_pose: Option<Isometry3<f64>>,
 }
 
 impl TrackingSession {
@@ -125,6 +129,7 @@ impl TrackingSession {
             requests: RequestLedger::default(),
             frames_since_keyframe: 0,
             map_from_odom: Isometry3::identity(),
+            requested_pose: None,
             config,
         }
     }
@@ -302,7 +307,11 @@ impl TrackingSession {
             return false;
         }
         if update.map.corrections() != self.map.corrections() {
-            self.take_correction(&update.map);
+            let answered = update
+                .keyframe
+                .filter(|_| receipt == MapReceipt::Answer)
+                .zip(self.requested_pose);
+            self.take_correction(&update.map, answered);
         }
         self.map = update.map;
         self.map.canonicalise();
@@ -318,14 +327,20 @@ impl TrackingSession {
     }
 
     /// A map whose loop corrections differ from the held one's moved its keyframes: the
-    /// newest keyframe both maps hold says how the world moved around the camera
-    /// (`new_from_old`); the last frame and the motion model follow it, and so does
+    /// keyframe the map answers (`answered`, with its frame's tracked `camera_from_world`)
+    /// or else the newest keyframe both maps hold says how the world moved around the
+    /// camera (`new_from_old`); the last frame and the motion model follow it, and so does
     /// `map_from_odom`, so that the published odometry does not jump.
-    fn take_correction(&mut self, corrected: &Map) {
-        let moved = corrected.keyframe_ids().into_iter().rev().find_map(|kf| {
-            let old = self.map.keyframe(kf)?;
-            let new = corrected.keyframe(kf)?;
-            Some(new.world_from_camera() * old.camera_from_world)
+    fn take_correction(&mut self, corrected: &Map, answered: Option<(KeyFrameId, Isometry3<f64>)>) {
+        let from_answer = answered.and_then(|(kf, camera_from_world)| {
+            Some(corrected.keyframe(kf)?.world_from_camera() * camera_from_world)
+        });
+        let moved = from_answer.or_else(|| {
+            corrected.keyframe_ids().into_iter().rev().find_map(|kf| {
+                let old = self.map.keyframe(kf)?;
+                let new = corrected.keyframe(kf)?;
+                Some(new.world_from_camera() * old.camera_from_world)
+            })
         });
         let Some(new_from_old) = moved else {
             return;
@@ -386,6 +401,7 @@ impl TrackingSession {
     }
 
     fn request_keyframe(&mut self, frame: &TrackedFrame, reset: bool) -> KeyFrameRequest {
+        self.requested_pose = Some(frame.camera_from_world);
         KeyFrameRequest {
             seq: self.requests.open(frame.features.id),
             frame: frame.clone(),

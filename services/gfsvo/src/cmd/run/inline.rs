@@ -8,7 +8,7 @@ use gfs_core::Image;
 use gfs_core::ids::FrameId;
 use gfs_dataset::Sequence;
 use gfs_odometry::loop_closing::LoopClosure;
-use gfs_odometry::{FrameAnchor, FramePose, Frontend, Odometry, OdometryConfig};
+use gfs_odometry::{FinalTrajectory, FramePose, Frontend, Odometry, OdometryConfig};
 use indicatif::ProgressBar;
 use std::collections::BTreeMap;
 
@@ -61,7 +61,7 @@ pub fn run(
     );
     let mut times = StageTimes::default();
     let mut poses = Vec::with_capacity(total);
-    let mut anchors: Vec<Anchor> = Vec::with_capacity(total);
+    let mut finals = FinalTrajectory::with_capacity(total);
     let mut interrupted = false;
     let (width, height) = (pinhole.width, pinhole.height);
     let blank = (
@@ -106,40 +106,18 @@ pub fn run(
             odometry.process(features)?
         };
         times.record(&frontend, &odometry);
-        anchors.push(match odometry.anchor(&pose) {
-            Some(anchor) => Anchor::KeyFrame(anchor),
-            None => Anchor::Map(odometry.map_from_odom() * pose.world_from_camera),
-        });
+        finals.record(&odometry, &pose);
         poses.push(pose);
         progress.inc(1);
     }
-    let finals = poses
-        .iter()
-        .zip(&anchors)
-        .map(|(pose, anchor)| FramePose {
-            world_from_camera: match anchor {
-                Anchor::KeyFrame(a) => odometry.final_pose(a),
-                Anchor::Map(p) => *p,
-            },
-            ..*pose
-        })
-        .collect();
     Ok(InlineOutcome {
-        poses: finals,
+        poses: finals.finish(&odometry, &poses),
         odometry: poses,
         loops: odometry.loops().to_vec(),
         timings: times.summarise(),
         keyframes: odometry.map().keyframe_count(),
         interrupted,
     })
-}
-
-/// What a frame's final pose is taken from.
-enum Anchor {
-    /// Its reference keyframe, as the map holds it at the end.
-    KeyFrame(FrameAnchor),
-    /// No keyframe yet: its map pose when it was tracked.
-    Map(nalgebra::Isometry3<f64>),
 }
 
 /// Per-frame milliseconds of each stage.
