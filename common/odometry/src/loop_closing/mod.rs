@@ -10,6 +10,8 @@
 
 mod correct;
 mod detect;
+#[cfg(test)]
+mod tests;
 mod verify;
 
 pub use correct::correct_loop;
