@@ -124,3 +124,18 @@ fn a_second_optimisation_reuses_the_structure_and_stays_put() {
         assert!((a.translation.vector - b.translation.vector).norm() < 1e-6);
     }
 }
+
+#[test]
+fn a_free_node_without_edges_stays_put() {
+    let mut rng = SplitMix64::new(4);
+    let mut ring = odometry_chain(circle(20, 1), &mut rng);
+    add_unbiased_edge(&mut ring, 19, 0, &mut rng);
+    let lonely = Isometry3::translation(3.0, -1.0, 2.0);
+    let node = ring.graph.add_node(lonely, false);
+    let report = ring
+        .graph
+        .optimize(&PoseGraphConfig::default())
+        .expect("valid graph");
+    assert!(report.final_cost < report.initial_cost);
+    assert_eq!(*ring.graph.pose(node), lonely);
+}

@@ -57,6 +57,10 @@ enum Command {
     /// camera info, publishes /odom, /tf and the status, until SIGINT / SIGTERM; then
     /// writes trajectory.txt, status.txt and profile.json.
     Ros2(cmd::ros2::Ros2Args),
+    /// Place recognition: build the bag-of-words vocabulary from rendered scenes or
+    /// datasets, and measure keyframe retrieval with it on a dataset with ground truth.
+    #[command(subcommand)]
+    Vocab(cmd::vocab::VocabCommand),
 }
 
 fn main() -> ExitCode {
@@ -75,6 +79,7 @@ fn main() -> ExitCode {
         Command::Record(args) => cmd::record::run(args),
         Command::Clean(args) => cmd::clean::run(args),
         Command::Ros2(args) => cmd::ros2::run(args, &cli.log),
+        Command::Vocab(command) => cmd::vocab::run(command),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

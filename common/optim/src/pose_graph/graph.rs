@@ -25,7 +25,9 @@ struct Edge {
 /// left-perturbation Jacobians and their derivation are in `edge.rs`. Keep one graph
 /// and call [`Self::optimize`] again after [`Self::set_pose`]: the sparse structure and
 /// its symbolic factorisation are kept until a node or an edge is added or a node's
-/// fixed flag changes.
+/// fixed flag changes. Fix a node in every connected part of the graph: a part with no
+/// fixed node has no defined position (LM only damps that freedom), and a free node
+/// with no edge stays where it is.
 ///
 /// ```
 /// use gfs_optim::{PoseGraph, PoseGraphConfig};

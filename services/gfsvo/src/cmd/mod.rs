@@ -9,3 +9,4 @@ pub mod ros2;
 pub mod ros2_io;
 pub mod run;
 pub mod synth;
+pub mod vocab;
