@@ -1,5 +1,6 @@
 //! Loop closing: coming back to a place mapped before. After each keyframe, candidates
-//! are looked for ([`detect`]), verified geometrically ([`verify`]), and a verified loop
+//! are looked for by appearance ([`place`], bag of words) and by position in the drifted
+//! estimate ([`detect`]), verified geometrically ([`verify`]), and a verified loop
 //! corrects the map ([`correct`]): a pose graph over the keyframes, the landmarks moved
 //! with their keyframes, and the current keyframe's matches to the old side fused, so
 //! that tracking and local mapping go on against the old landmarks.
@@ -10,12 +11,14 @@
 
 mod correct;
 mod detect;
+mod place;
 #[cfg(test)]
 mod tests;
 mod verify;
 
 pub use correct::correct_loop;
 pub use detect::proximity_candidates;
+pub use place::PlaceIndex;
 pub use verify::{LoopMatch, Verifier};
 
 use crate::config::{LoopClosingConfig, OdometryConfig};
@@ -37,12 +40,16 @@ pub struct LoopClosure {
     pub inliers: usize,
     /// How far the correction moved the current keyframe, metres.
     pub shift_m: f64,
+    /// True when the bag of words proposed the candidate, false when only its position
+    /// in the drifted estimate did.
+    pub by_appearance: bool,
 }
 
 /// Detects, verifies and closes loops in the map, one keyframe after the other.
 pub struct LoopCloser {
     config: LoopClosingConfig,
     verifier: Verifier,
+    places: PlaceIndex,
     last_loop: Option<KeyFrameId>,
 }
 
@@ -53,6 +60,7 @@ impl LoopCloser {
         Self {
             config: config.loop_closing.clone(),
             verifier: Verifier::new(camera, solver),
+            places: PlaceIndex::default(),
             last_loop: None,
         }
     }
@@ -64,17 +72,23 @@ impl LoopCloser {
         if !self.config.enabled {
             return None;
         }
+        self.places.sync(map);
         if let Some(last) = self.last_loop
             && kf.0 < last.0 + self.config.keyframes_between_loops
         {
             return None;
         }
-        let found = proximity_candidates(map, kf, &self.config)
-            .into_iter()
-            .find_map(|candidate| {
-                self.verifier
-                    .verify(map, kf, candidate, self.config.min_inliers, kf.0)
-            })?;
+        let by_appearance = self.places.candidates(map, kf, &self.config);
+        let mut candidates = by_appearance.clone();
+        for near in proximity_candidates(map, kf, &self.config) {
+            if !candidates.contains(&near) {
+                candidates.push(near);
+            }
+        }
+        let found = candidates.into_iter().find_map(|candidate| {
+            self.verifier
+                .verify(map, kf, candidate, self.config.min_inliers, kf.0)
+        })?;
         let before = map.keyframe(kf)?.world_from_camera();
         if let Err(e) = correct_loop(map, kf, &found) {
             tracing::warn!(keyframe = %kf, candidate = %found.candidate, "loop not corrected: {e}");
@@ -88,12 +102,14 @@ impl LoopCloser {
             candidate: found.candidate,
             inliers: found.inliers,
             shift_m: (after.translation.vector - before.translation.vector).norm(),
+            by_appearance: by_appearance.contains(&found.candidate),
         };
         tracing::info!(
             keyframe = %kf,
             candidate = %found.candidate,
             inliers = found.inliers,
             shift_m = closure.shift_m,
+            by_appearance = closure.by_appearance,
             "loop closed"
         );
         Some(closure)

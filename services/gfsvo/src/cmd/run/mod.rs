@@ -274,8 +274,16 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             println!("loops       {} closed", found.len());
             for l in found {
                 println!(
-                    "            keyframe {} -> {}: {} inliers, moved {:.3} m",
-                    l.current, l.candidate, l.inliers, l.shift_m
+                    "            keyframe {} -> {}: {} inliers, moved {:.3} m, found by {}",
+                    l.current,
+                    l.candidate,
+                    l.inliers,
+                    l.shift_m,
+                    if l.by_appearance {
+                        "appearance"
+                    } else {
+                        "position"
+                    }
                 );
             }
         }
