@@ -92,7 +92,7 @@ impl MotionModel {
     /// correction); the velocity is relative to the camera and stays.
     pub fn shift_world(&mut self, new_from_old: &Isometry3<f64>) {
         if let Some(last) = &mut self.last {
-            *last = *last * new_from_old.inverse();
+            *last *= new_from_old.inverse();
             last.rotation.renormalize();
         }
     }

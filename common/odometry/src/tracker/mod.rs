@@ -159,7 +159,7 @@ impl Tracker {
     pub fn shift_world(&mut self, new_from_old: &Isometry3<f64>) {
         self.motion.shift_world(new_from_old);
         if let Some(last) = &mut self.last {
-            last.camera_from_world = last.camera_from_world * new_from_old.inverse();
+            last.camera_from_world *= new_from_old.inverse();
         }
     }
 

@@ -24,11 +24,17 @@ pub struct InlineOutcome {
     pub loops: Vec<LoopClosure>,
     /// Milliseconds per stage.
     pub timings: BTreeMap<&'static str, Summary>,
+    /// Tracking milliseconds per block of [`BLOCK_FRAMES`] frames, in order (is the
+    /// time per frame flat over a long run?).
+    pub tracking_blocks: Vec<Summary>,
     /// Keyframes in the map at the end.
     pub keyframes: usize,
     /// True when SIGINT / SIGTERM stopped the run: `poses` holds the frames done.
     pub interrupted: bool,
 }
+
+/// Frames per block of [`InlineOutcome::tracking_blocks`].
+pub const BLOCK_FRAMES: usize = 500;
 
 /// Runs the first `total` frames of `sequence`.
 ///
@@ -114,6 +120,7 @@ pub fn run(
         poses: finals.finish(&odometry, &poses),
         odometry: poses,
         loops: odometry.loops().to_vec(),
+        tracking_blocks: times.tracking_blocks(),
         timings: times.summarise(),
         keyframes: odometry.map().keyframe_count(),
         interrupted,
@@ -142,6 +149,13 @@ impl StageTimes {
         if let Some(m) = o.mapping {
             self.mapping.push(ms(m));
         }
+    }
+
+    fn tracking_blocks(&self) -> Vec<Summary> {
+        self.tracking
+            .chunks(BLOCK_FRAMES)
+            .map(|block| Summary::of(&mut block.to_vec()))
+            .collect()
     }
 
     fn summarise(mut self) -> BTreeMap<&'static str, Summary> {

@@ -113,6 +113,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let timestamps = &source.timestamps[..total];
     let clock = std::time::Instant::now();
 
+    let mut tracking_blocks = Vec::new();
     let (poses, odometry, loops, processed, timings, keyframes, restarts, covariances) = if args
         .mode
         == RunMode::Inline
@@ -129,6 +130,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             return Err(interrupted(outcome.poses.len(), total, &args.out));
         }
         let timings = Timings::Inline(outcome.timings);
+        tracking_blocks = outcome.tracking_blocks;
         let processed = outcome.poses.len();
         let covariances = crate::pipeline::Covariances::new();
         (
@@ -256,6 +258,11 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
         if let Some(found) = &loops {
             object["loops"] = serde_json::to_value(found)?;
+        }
+        if !tracking_blocks.is_empty() {
+            let medians: Vec<f64> = tracking_blocks.iter().map(|s| s.median).collect();
+            object["tracking_median_ms_per_block"] = medians.into();
+            object["block_frames"] = inline::BLOCK_FRAMES.into();
         }
         if let Some(e) = &odometry_evaluation {
             object["odometry_ate_rmse_m"] = e.ate.stats.rmse.into();
