@@ -197,8 +197,11 @@ pub struct LoopClosingConfig {
     /// ... and whose optical axis is within this angle of the current one's, degrees.
     /// Default 40.
     pub search_angle_deg: f64,
-    /// Candidates verified per keyframe, nearest first. Default 3.
+    /// Candidates taken per keyframe from each source (appearance, position). Default 3.
     pub max_candidates: usize,
+    /// Consecutive keyframes whose candidates must agree (share a keyframe of their
+    /// covisible groups) before a candidate is verified (ORB-SLAM2: 3). Default 3.
+    pub consistent_keyframes: u32,
     /// Point inliers of the pose optimisation that accept a loop (ORB-SLAM2: 40 after
     /// its Sim3 optimisation). Default 50.
     pub min_inliers: usize,
@@ -213,6 +216,7 @@ impl Default for LoopClosingConfig {
             search_radius_m: 1.0,
             search_angle_deg: 40.0,
             max_candidates: 3,
+            consistent_keyframes: 3,
             min_inliers: 50,
         }
     }

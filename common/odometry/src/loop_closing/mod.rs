@@ -1,6 +1,7 @@
 //! Loop closing: coming back to a place mapped before. After each keyframe, candidates
 //! are looked for by appearance ([`place`], bag of words) and by position in the drifted
-//! estimate ([`detect`]), verified geometrically ([`verify`]), and a verified loop
+//! estimate ([`detect`]), kept when consistent over consecutive keyframes
+//! ([`consistency`]), verified geometrically ([`verify`]), and a verified loop
 //! corrects the map ([`correct`]): a pose graph over the keyframes, the landmarks moved
 //! with their keyframes, and the current keyframe's matches to the old side fused, so
 //! that tracking and local mapping go on against the old landmarks.
@@ -9,6 +10,7 @@
 //! mapping half owns; the tracker sees the correction in the next map it receives
 //! ([`crate::map::Map::corrections`]).
 
+mod consistency;
 mod correct;
 mod detect;
 mod place;
@@ -16,6 +18,7 @@ mod place;
 mod tests;
 mod verify;
 
+pub use consistency::ConsistentGroups;
 pub use correct::correct_loop;
 pub use detect::proximity_candidates;
 pub use place::PlaceIndex;
@@ -50,6 +53,7 @@ pub struct LoopCloser {
     config: LoopClosingConfig,
     verifier: Verifier,
     places: PlaceIndex,
+    groups: ConsistentGroups,
     last_loop: Option<KeyFrameId>,
 }
 
@@ -61,6 +65,7 @@ impl LoopCloser {
             config: config.loop_closing.clone(),
             verifier: Verifier::new(camera, solver),
             places: PlaceIndex::default(),
+            groups: ConsistentGroups::default(),
             last_loop: None,
         }
     }
@@ -76,6 +81,7 @@ impl LoopCloser {
         if let Some(last) = self.last_loop
             && kf.0 < last.0 + self.config.keyframes_between_loops
         {
+            self.groups.clear();
             return None;
         }
         let by_appearance = self.places.candidates(map, kf, &self.config);
@@ -85,7 +91,10 @@ impl LoopCloser {
                 candidates.push(near);
             }
         }
-        let found = candidates.into_iter().find_map(|candidate| {
+        let consistent = self
+            .groups
+            .update(map, &candidates, self.config.consistent_keyframes);
+        let found = consistent.into_iter().find_map(|candidate| {
             self.verifier
                 .verify(map, kf, candidate, self.config.min_inliers, kf.0)
         })?;
@@ -97,6 +106,7 @@ impl LoopCloser {
         fuse_matches(map, kf, &found);
         let after = map.keyframe(kf)?.world_from_camera();
         self.last_loop = Some(kf);
+        self.groups.clear();
         let closure = LoopClosure {
             current: kf,
             candidate: found.candidate,

@@ -40,7 +40,9 @@ fn a_drifted_return_is_found_verified_and_pulled_onto_the_old_place() {
     let scene = Scene::new(200, 0);
     let truth = pose(0.05, 2f64.to_radians());
     let (mut map, current) = came_back(&scene, truth);
-    let config = OdometryConfig::default();
+    let mut config = OdometryConfig::default();
+    // One keyframe comes back here: no later keyframes to be consistent with.
+    config.loop_closing.consistent_keyframes = 1;
     assert_eq!(
         proximity_candidates(&map, current, &config.loop_closing),
         vec![KeyFrameId(0)]
@@ -86,7 +88,9 @@ fn nothing_is_closed_when_disabled_or_when_the_place_is_not_the_same() {
     shuffled.point_descriptors.reverse();
     let mut map2 = came_back(&scene, truth).0;
     let wrong = map2.insert_keyframe(unlinked(shuffled, truth));
-    let mut closer = LoopCloser::new(&OdometryConfig::default(), camera(), scale());
+    config.loop_closing.enabled = true;
+    config.loop_closing.consistent_keyframes = 1;
+    let mut closer = LoopCloser::new(&config, camera(), scale());
     assert_eq!(closer.after_keyframe(&mut map2, wrong), None);
     assert_eq!(map2.corrections(), 0);
 }
