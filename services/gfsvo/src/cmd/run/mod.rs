@@ -193,14 +193,16 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             return Err(interrupted(poses.len(), total, &args.out));
         }
         let poses = pipeline::complete_trajectory(&outcome.received, timestamps);
+        let in_map = pipeline::map_poses(&poses, &outcome.corrections);
         let timings = Timings::Pipeline(outcome.profile.summary());
         if !outcome.leftovers.is_empty() {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
         }
         let processed = outcome.received.len();
-        // The pipeline's recorder sees the published (continuous) poses only.
+        // The recorder sees the poses as published: the continuous odometry and the
+        // loop corrections known at each frame, not the later ones.
         (
-            poses.clone(),
+            in_map,
             poses,
             None,
             processed,
@@ -222,8 +224,12 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         Some(gt) => Some(evaluate(gt, &estimated, EVO_MAX_DIFF_S)?),
         None => None,
     };
-    let odometry_evaluation = match (&ground_truth, &loops) {
-        (Some(gt), Some(found)) if !found.is_empty() => {
+    let corrected = poses
+        .iter()
+        .zip(&odometry)
+        .any(|(a, b)| a.world_from_camera != b.world_from_camera);
+    let odometry_evaluation = match &ground_truth {
+        Some(gt) if corrected => {
             let continuous = checks::tracked_poses(&odometry);
             Some(evaluate(gt, &continuous, EVO_MAX_DIFF_S)?)
         }
