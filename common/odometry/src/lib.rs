@@ -15,7 +15,12 @@
 //! [`Mapper`] turns keyframes (chosen on points **or** lines, [`needs_keyframe`]) into
 //! landmarks, fuses duplicates, runs the local BA with reprojection, structural and
 //! Manhattan terms (eq. 10-14) and culls keyframes redundant in both points and lines.
-//! The map is bounded, so memory and time stay flat over long runs.
+//! The map is bounded, so memory and time stay flat over long runs. When the camera
+//! comes back to a place, [`loop_closing`] finds it (bag of words and position),
+//! verifies it, optimises a pose graph over the keyframes and moves the landmarks; the
+//! tracker takes the correction into `map_from_odom` (REP 105 `map -> odom`) so that the
+//! poses it publishes stay continuous, and [`FinalTrajectory`] gives every frame the
+//! corrections that came after it.
 //!
 //! **Use.** [`Odometry::process`] runs tracking and mapping in the caller's thread; the
 //! pipeline runs the two halves of [`session`] as two services that exchange keyframe
