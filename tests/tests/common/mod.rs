@@ -62,6 +62,8 @@ pub fn sequence() -> &'static Path {
 pub struct Outcome {
     pub success: bool,
     pub ate: f64,
+    /// ATE of `odometry.txt`, when loop corrections made it differ from the trajectory.
+    pub odometry_ate: Option<f64>,
     pub degraded: u64,
     pub trajectory: String,
     pub restarts: BTreeMap<String, u64>,
@@ -70,11 +72,16 @@ pub struct Outcome {
 }
 
 pub fn start(bin: &Path, run_id: &str, out: &Path, extra: &[&str]) -> Child {
+    start_on(bin, sequence(), run_id, out, extra)
+}
+
+/// [`start`] on another dataset folder.
+pub fn start_on(bin: &Path, dataset: &Path, run_id: &str, out: &Path, extra: &[&str]) -> Child {
     let _ = std::fs::remove_dir_all(out);
     std::fs::create_dir_all(out).unwrap();
     Command::new(bin.join("gfsvo"))
         .arg("run")
-        .arg(sequence())
+        .arg(dataset)
         .arg("--out")
         .arg(out)
         .args(["--run-id", run_id, "--json", "--log", "warn"])
@@ -108,6 +115,7 @@ pub fn finish(child: Child, out: &Path, run_id: &str) -> Outcome {
     Outcome {
         success: output.status.success(),
         ate: json["ate_rmse_m"].as_f64().unwrap_or(f64::INFINITY),
+        odometry_ate: json["odometry_ate_rmse_m"].as_f64(),
         degraded: json["status"]["degraded"].as_u64().unwrap_or(0),
         trajectory,
         restarts,
