@@ -64,11 +64,12 @@ impl Verifier {
         seed: u64,
     ) -> Option<LoopMatch> {
         let keyframe = map.keyframe(current)?;
-        let ids = loop_side_points(map, current, candidate);
-        let descriptors: Vec<_> = ids
-            .iter()
-            .filter_map(|id| map.point(*id).map(|p| p.descriptor))
-            .collect();
+        // Ids and descriptors side by side, so that a match's index names its point.
+        let (ids, descriptors): (Vec<MapPointId>, Vec<_>) =
+            loop_side_points(map, current, candidate)
+                .into_iter()
+                .filter_map(|id| map.point(id).map(|p| (id, p.descriptor)))
+                .unzip();
         let features = &keyframe.features;
         match_descriptors(
             &features.point_descriptors,
