@@ -3,8 +3,9 @@
 mod pose_graph_fixture;
 
 use gfs_core::rng::SplitMix64;
-use gfs_optim::{PoseGraphConfig, PoseGraphError, PoseGraphKernel};
-use nalgebra::{Isometry3, Matrix6};
+use gfs_core::se3::exp;
+use gfs_optim::{PoseGraph, PoseGraphConfig, PoseGraphError, PoseGraphKernel};
+use nalgebra::{Isometry3, Matrix6, Vector6};
 use pose_graph_fixture::{add_unbiased_edge, circle, information, odometry_chain, rmse};
 
 #[test]
@@ -103,6 +104,15 @@ fn bad_graphs_are_errors() {
         ring.graph.add_edge(0, 1, Isometry3::identity(), nan),
         Err(PoseGraphError::NotFinite { what: "edge", .. })
     ));
+    let zero_delta = PoseGraphConfig {
+        kernel: PoseGraphKernel::Cauchy,
+        kernel_delta: 0.0,
+        ..PoseGraphConfig::default()
+    };
+    assert_eq!(
+        ring.graph.optimize(&zero_delta),
+        Err(PoseGraphError::KernelDelta(0.0))
+    );
     ring.graph.set_fixed(0, false);
     assert_eq!(
         ring.graph.optimize(&PoseGraphConfig::default()),
@@ -138,4 +148,58 @@ fn a_free_node_without_edges_stays_put() {
         .expect("valid graph");
     assert!(report.final_cost < report.initial_cost);
     assert_eq!(*ring.graph.pose(node), lonely);
+}
+
+#[test]
+fn a_hundred_degrees_of_yaw_drift_still_converges() {
+    // 1 degree of yaw error per odometry edge: the loop edge starts 99 degrees off.
+    // (At 2 degrees per edge, ~200 degrees in all, LM from the dead-reckoned poses
+    // stalls in a local minimum: the caller should first move the loop's side of the
+    // graph by the loop correction, as ORB-SLAM2 does before its essential graph.)
+    let truth = circle(100, 1);
+    let mut rng = SplitMix64::new(2);
+    let mut graph = PoseGraph::new();
+    let mut pose = truth[0];
+    graph.add_node(pose, true);
+    let mut odometry = Vec::new();
+    for i in 1..100 {
+        let yaw = exp(&Vector6::new(0.0, 0.0, 0.0, 0.0, 1f64.to_radians(), 0.0));
+        let noise = exp(&Vector6::new(
+            0.01 * rng.gaussian(),
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+        ));
+        let z = truth[i - 1].inverse() * truth[i] * yaw * noise;
+        pose *= z;
+        graph.add_node(pose, false);
+        odometry.push(z);
+    }
+    for (i, z) in odometry.into_iter().enumerate() {
+        graph
+            .add_edge(i, i + 1, z, information())
+            .expect("nodes exist");
+    }
+    graph
+        .add_edge(99, 0, truth[99].inverse() * truth[0], information())
+        .expect("nodes exist");
+    let rmse = |g: &PoseGraph| {
+        let sum: f64 = g
+            .poses()
+            .iter()
+            .zip(&truth)
+            .map(|(p, t)| (p.translation.vector - t.translation.vector).norm_squared())
+            .sum();
+        (sum / truth.len() as f64).sqrt()
+    };
+    let before = rmse(&graph);
+    let report = graph
+        .optimize(&PoseGraphConfig::default())
+        .expect("valid graph");
+    let after = rmse(&graph);
+    println!("100 degrees of drift: RMSE {before:.3} -> {after:.4} m, {report:?}");
+    assert!(report.converged, "{report:?}");
+    assert!(before > 5.0 && after < 0.1, "{before} -> {after}");
 }

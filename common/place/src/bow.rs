@@ -1,6 +1,8 @@
 //! Bag-of-words vectors, their similarity, and feature vectors (features grouped by
 //! vocabulary node) for matching two images' descriptors.
 
+use serde::{Deserialize, Serialize};
+
 /// Index of a word (a leaf of the vocabulary tree).
 pub type WordId = u32;
 
@@ -9,7 +11,7 @@ pub type NodeId = u32;
 
 /// A sparse tf-idf vector: `(word, weight)` sorted by word, weights L1-normalised (they
 /// sum to 1; an image with no known word gives the empty vector).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct BowVector {
     entries: Vec<(WordId, f64)>,
 }
@@ -81,7 +83,7 @@ pub fn score(a: &BowVector, b: &BowVector) -> f64 {
 /// The features of an image grouped by the vocabulary node they pass through at one
 /// level: two images' descriptors need only be compared within a shared node (the
 /// speed-up of ORB-SLAM2's `SearchByBoW`).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct FeatureVector {
     /// `(node, feature indices)` sorted by node; indices ascending.
     groups: Vec<(NodeId, Vec<u32>)>,

@@ -2,6 +2,7 @@
 //! it, for retrieval by bag-of-words similarity.
 
 use crate::bow::{BowVector, l1_term};
+use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::hash::Hash;
 
@@ -10,7 +11,19 @@ use std::hash::Hash;
 ///
 /// `Id` is the caller's keyframe id (e.g. `gfs_core::ids::KeyFrameId`, or `u64`).
 /// Internally each keyframe has a dense slot; removed slots are reused.
-#[derive(Clone, Debug)]
+///
+/// It serialises as its word count and its `(id, vector)` entries, and is rebuilt from
+/// them on deserialisation, so that a checkpoint or message cannot hold an inconsistent
+/// index.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(
+    from = "DatabaseSnapshot<Id>",
+    into = "DatabaseSnapshot<Id>",
+    bound(
+        serialize = "Id: Serialize + Copy + Eq + Hash",
+        deserialize = "Id: Deserialize<'de> + Copy + Eq + Hash"
+    )
+)]
 pub struct KeyFrameDatabase<Id> {
     /// Per word: `(slot, weight)` of the keyframes holding it.
     inverted: Vec<Vec<(u32, f64)>>,
@@ -20,9 +33,35 @@ pub struct KeyFrameDatabase<Id> {
     slot_of: HashMap<Id, u32>,
 }
 
+/// The serialised form of a [`KeyFrameDatabase`].
+#[derive(Serialize, Deserialize)]
+struct DatabaseSnapshot<Id> {
+    words: u32,
+    keyframes: Vec<(Id, BowVector)>,
+}
+
+impl<Id: Copy + Eq + Hash> From<KeyFrameDatabase<Id>> for DatabaseSnapshot<Id> {
+    fn from(database: KeyFrameDatabase<Id>) -> Self {
+        Self {
+            words: database.inverted.len() as u32,
+            keyframes: database.slots.into_iter().flatten().collect(),
+        }
+    }
+}
+
+impl<Id: Copy + Eq + Hash> From<DatabaseSnapshot<Id>> for KeyFrameDatabase<Id> {
+    fn from(snapshot: DatabaseSnapshot<Id>) -> Self {
+        let mut database = Self::new(snapshot.words as usize);
+        for (id, bow) in &snapshot.keyframes {
+            database.add(*id, bow);
+        }
+        database
+    }
+}
+
 impl<Id: Copy + Eq + Hash> KeyFrameDatabase<Id> {
-    /// An empty database for a vocabulary of `words` words (unknown words of a vector
-    /// grow it).
+    /// An empty database for a vocabulary of `words` words
+    /// ([`crate::Vocabulary::num_words`]); words of a vector outside it are ignored.
     pub fn new(words: usize) -> Self {
         Self {
             inverted: vec![Vec::new(); words],
@@ -64,11 +103,9 @@ impl<Id: Copy + Eq + Hash> KeyFrameDatabase<Id> {
             }
         };
         for &(word, weight) in bow.entries() {
-            let w = word as usize;
-            if w >= self.inverted.len() {
-                self.inverted.resize(w + 1, Vec::new());
+            if let Some(list) = self.inverted.get_mut(word as usize) {
+                list.push((slot, weight));
             }
-            self.inverted[w].push((slot, weight));
         }
         self.slots[slot as usize] = Some((id, bow.clone()));
         self.slot_of.insert(id, slot);
@@ -82,7 +119,9 @@ impl<Id: Copy + Eq + Hash> KeyFrameDatabase<Id> {
         };
         if let Some((_, bow)) = self.slots[slot as usize].take() {
             for &(word, _) in bow.entries() {
-                self.inverted[word as usize].retain(|e| e.0 != slot);
+                if let Some(list) = self.inverted.get_mut(word as usize) {
+                    list.retain(|e| e.0 != slot);
+                }
             }
         }
         self.free.push(slot);
@@ -170,8 +209,17 @@ mod tests {
         db.add(40, &a);
         assert_eq!(db.len(), 3);
         assert_eq!(db.query(&q, 5, |_| false)[0], (40, score(&q, &a)));
-        // Words beyond the initial size grow the inverted file.
-        db.add(50, &bow(&[(25, 1.0)]));
-        assert_eq!(db.query(&bow(&[(25, 1.0)]), 1, |_| false), vec![(50, 1.0)]);
+        // Words outside the vocabulary are ignored.
+        db.add(50, &bow(&[(25, 1.0), (4, 1.0)]));
+        assert_eq!(db.query(&bow(&[(25, 1.0)]), 1, |_| false), vec![]);
+        assert_eq!(db.query(&bow(&[(4, 1.0)]), 1, |_| false), vec![(50, 0.5)]);
+        // A checkpoint restores the same answers.
+        let config = bincode::config::standard();
+        let bytes = bincode::serde::encode_to_vec(&db, config).expect("encodable");
+        let (back, _): (KeyFrameDatabase<u64>, usize) =
+            bincode::serde::decode_from_slice(&bytes, config).expect("decodable");
+        assert_eq!(back.query(&q, 5, |_| false), db.query(&q, 5, |_| false));
+        assert_eq!(back.len(), db.len());
+        assert_eq!(back.get(20), db.get(20));
     }
 }

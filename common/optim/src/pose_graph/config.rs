@@ -118,6 +118,9 @@ pub enum PoseGraphError {
         /// Index of the edge.
         edge: usize,
     },
+    /// A robust kernel with a threshold that is not a positive number.
+    #[error("pose-graph kernel threshold {0} is not positive and finite")]
+    KernelDelta(f64),
     /// Every node is free: the graph's pose is not observable (gauge freedom).
     #[error("pose graph of {nodes} nodes fixes none of them")]
     NoFixedNode {
