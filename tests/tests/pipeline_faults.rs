@@ -5,40 +5,19 @@
 //! supervisor restarted the stage each time, and nothing of the run is left (no
 //! process, no iceoryx2 file or shared memory); with no frame past its deadline the
 //! trajectory is even byte-identical to the undisturbed one. Also: lockstep, threads
-//! and inline give the same trajectory, and a mapper killed around a loop still closes
-//! it (slow: two laps of the synthetic room).
+//! and inline give the same trajectory. (A mapper killed around a loop:
+//! `loop_faults.rs`.)
 //!
 //! The test drives the real executables (`gfsvo`, `gfsvo-*`): it builds them once with
 //! the cargo that runs it (a no-op when they are up to date).
 
 mod common;
 
-use common::{FRAMES, PoseWatch, STAGES, binaries, finish, out_dir, pid_of, run_id, start};
+use common::{FRAMES, PoseWatch, STAGES, binaries, finish, kill_at, out_dir, run_id, start};
 use gfs_synth::SplitMix64;
 use std::path::Path;
-use std::process::Child;
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
-/// Kills `stage` with SIGKILL when frames `at` are reached; returns the kills done.
-fn kill_at(run_id: &str, out: &Path, stage: &str, at: &[u64], child: &mut Child) -> usize {
-    let mut watch = PoseWatch::new(run_id);
-    let mut kills = 0;
-    for &frame in at {
-        if !watch.reach(frame, child) {
-            break;
-        }
-        let Some(pid) = pid_of(out, stage) else { break };
-        // SAFETY: kill(2) has no memory effects.
-        assert_eq!(unsafe { libc::kill(pid, libc::SIGKILL) }, 0, "kill {stage}");
-        kills += 1;
-        let deadline = Instant::now() + Duration::from_secs(30);
-        while pid_of(out, stage) == Some(pid) && Instant::now() < deadline {
-            std::thread::sleep(Duration::from_millis(5));
-        }
-    }
-    kills
-}
-
 /// Three frames in thirds of the sequence, from a seed.
 fn random_frames(seed: u64) -> [u64; 3] {
     let mut rng = SplitMix64::new(seed);
@@ -190,65 +169,4 @@ fn lockstep_threads_and_inline_give_the_same_trajectory() {
     assert_eq!(inline.lines().filter(|l| !l.starts_with('#')).count(), 80);
     assert_eq!(trajectory("lockstep"), inline);
     assert_eq!(trajectory("threads"), inline);
-}
-
-/// Two laps of the synthetic room (the loop the odometry closes after one lap), rendered
-/// once per target folder.
-fn loop_sequence() -> &'static Path {
-    static DIR: OnceLock<std::path::PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("synth_faults_loop_721");
-        if !dir.join("associations.txt").is_file() {
-            let config = gfs_synth::SynthConfig {
-                trajectory: gfs_synth::TrajectoryKind::Loop,
-                frames: 721,
-                ..gfs_synth::SynthConfig::default()
-            };
-            gfs_synth::SynthSequence::new(config)
-                .write_tum(&dir, |_| ())
-                .unwrap();
-        }
-        dir
-    })
-}
-
-/// Slow (renders two laps, 721 frames, and runs the pipeline twice): loop closing lives
-/// in the mapper process, so a mapper killed three times around the loop (before it,
-/// about when it closes, after it) must still close it from its checkpoint: the
-/// tracker takes a correction in (odometry.txt then differs from trajectory.txt) and the
-/// trajectory beats the run without loop closing.
-#[test]
-fn mapper_killed_around_a_loop_still_closes_it() {
-    let dataset = loop_sequence();
-    let (id, out) = (run_id("nolc"), out_dir("loop_off"));
-    let child = common::start_on(binaries(), dataset, &id, &out, &["--no-loop-closing"]);
-    let off = finish(child, &out, &id);
-    assert!(
-        off.success,
-        "run without loop closing failed: {}",
-        off.stderr
-    );
-    let (id, out) = (run_id("lkill"), out_dir("loop_killed"));
-    let mut child = common::start_on(binaries(), dataset, &id, &out, &[]);
-    let kills = kill_at(&id, &out, "mapper", &[200, 365, 550], &mut child);
-    let o = finish(child, &out, &id);
-    println!(
-        "mapper killed around the loop: ATE {:.4} m (odometry {:?}), without loop closing \
-         {:.4} m, restarts {:?}",
-        o.ate, o.odometry_ate, off.ate, o.restarts
-    );
-    assert_eq!(kills, 3);
-    assert!(o.success, "{}", o.stderr);
-    assert_eq!(o.trajectory_lines, 721);
-    assert_eq!(o.restarts.get("mapper").copied(), Some(3));
-    assert!(
-        o.odometry_ate.is_some(),
-        "no loop correction reached the tracker"
-    );
-    assert!(
-        o.ate < off.ate,
-        "{} against {} without loop closing",
-        o.ate,
-        off.ate
-    );
 }

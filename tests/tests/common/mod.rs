@@ -219,3 +219,23 @@ pub fn gfsvo(args: &[&str]) -> std::process::Output {
         .output()
         .unwrap()
 }
+
+/// Kills `stage` with SIGKILL when frames `at` are reached; returns the kills done.
+pub fn kill_at(run_id: &str, out: &Path, stage: &str, at: &[u64], child: &mut Child) -> usize {
+    let mut watch = PoseWatch::new(run_id);
+    let mut kills = 0;
+    for &frame in at {
+        if !watch.reach(frame, child) {
+            break;
+        }
+        let Some(pid) = pid_of(out, stage) else { break };
+        // SAFETY: kill(2) has no memory effects.
+        assert_eq!(unsafe { libc::kill(pid, libc::SIGKILL) }, 0, "kill {stage}");
+        kills += 1;
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while pid_of(out, stage) == Some(pid) && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+    kills
+}
