@@ -5,7 +5,8 @@
 //! supervisor restarted the stage each time, and nothing of the run is left (no
 //! process, no iceoryx2 file or shared memory); with no frame past its deadline the
 //! trajectory is even byte-identical to the undisturbed one. Also: lockstep, threads
-//! and inline give the same trajectory.
+//! and inline give the same trajectory. (A mapper killed around a loop:
+//! `loop_faults.rs`.)
 //!
 //! The test drives the real executables (`gfsvo`, `gfsvo-*`): it builds them once with
 //! the cargo that runs it (a no-op when they are up to date).
@@ -13,33 +14,12 @@
 mod common;
 
 use common::{
-    FRAMES, PoseWatch, STAGES, binaries, finish, out_dir, pid_of, run_id, sequence, start,
+    FRAMES, PoseWatch, STAGES, binaries, finish, kill_at, out_dir, run_id, sequence, start,
 };
 use gfs_synth::SplitMix64;
 use std::path::Path;
-use std::process::Child;
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
-/// Kills `stage` with SIGKILL when frames `at` are reached; returns the kills done.
-fn kill_at(run_id: &str, out: &Path, stage: &str, at: &[u64], child: &mut Child) -> usize {
-    let mut watch = PoseWatch::new(run_id);
-    let mut kills = 0;
-    for &frame in at {
-        if !watch.reach(frame, child) {
-            break;
-        }
-        let Some(pid) = pid_of(out, stage) else { break };
-        // SAFETY: kill(2) has no memory effects.
-        assert_eq!(unsafe { libc::kill(pid, libc::SIGKILL) }, 0, "kill {stage}");
-        kills += 1;
-        let deadline = Instant::now() + Duration::from_secs(30);
-        while pid_of(out, stage) == Some(pid) && Instant::now() < deadline {
-            std::thread::sleep(Duration::from_millis(5));
-        }
-    }
-    kills
-}
-
 /// Three frames in thirds of the sequence, from a seed.
 fn random_frames(seed: u64) -> [u64; 3] {
     let mut rng = SplitMix64::new(seed);

@@ -1,5 +1,5 @@
-//! Parameters of the odometry: `[tracking]`, `[keyframes]`, `[mapping]` tables and the
-//! ablation switches.
+//! Parameters of the odometry: `[tracking]`, `[keyframes]`, `[mapping]`,
+//! `[loop_closing]` tables and the ablation switches.
 
 use crate::depth_alignment::DepthAlignmentConfig;
 use crate::matching::{LineMatchConfig, PointMatchConfig};
@@ -17,6 +17,8 @@ pub struct OdometryConfig {
     pub keyframes: KeyframeConfig,
     /// Local mapping and local BA.
     pub mapping: MappingConfig,
+    /// Loop detection, verification and the pose-graph correction.
+    pub loop_closing: LoopClosingConfig,
 }
 
 /// `[tracking]`: frame-to-map tracking.
@@ -190,6 +192,51 @@ impl Default for MappingConfig {
             max_structural_pairs: 2000,
             fuse_max_distance: 50,
             ba: BaConfig::default(),
+        }
+    }
+}
+
+/// `[loop_closing]`: coming back to a place (detection, geometric verification, pose
+/// graph over the keyframes, landmark correction).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LoopClosingConfig {
+    /// Close loops (ablation switch). Default true.
+    pub enabled: bool,
+    /// A candidate is at least this many keyframes older than the current one and not
+    /// covisible with it (a place left and come back to, not the place being mapped).
+    /// Default 20.
+    pub min_keyframe_gap: u64,
+    /// Keyframes after a closed loop before the next detection (the corrected map
+    /// settles first). Default 10.
+    pub keyframes_between_loops: u64,
+    /// Candidates whose camera centre is within this distance of the current one's
+    /// (in the drifted estimate), metres. Default 1.0.
+    pub search_radius_m: f64,
+    /// ... and whose optical axis is within this angle of the current one's, degrees.
+    /// Default 40.
+    pub search_angle_deg: f64,
+    /// Candidates taken per keyframe from each source (appearance, position). Default 3.
+    pub max_candidates: usize,
+    /// Consecutive keyframes whose candidates must agree (share a keyframe of their
+    /// covisible groups) before a candidate is verified (ORB-SLAM2: 3). Default 3.
+    pub consistent_keyframes: u32,
+    /// Point inliers of the pose optimisation that accept a loop (ORB-SLAM2: 40 after
+    /// its Sim3 optimisation). Default 50.
+    pub min_inliers: usize,
+}
+
+impl Default for LoopClosingConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            min_keyframe_gap: 20,
+            keyframes_between_loops: 10,
+            search_radius_m: 1.0,
+            search_angle_deg: 40.0,
+            max_candidates: 3,
+            consistent_keyframes: 3,
+            min_inliers: 50,
         }
     }
 }

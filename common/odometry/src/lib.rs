@@ -15,7 +15,12 @@
 //! [`Mapper`] turns keyframes (chosen on points **or** lines, [`needs_keyframe`]) into
 //! landmarks, fuses duplicates, runs the local BA with reprojection, structural and
 //! Manhattan terms (eq. 10-14) and culls keyframes redundant in both points and lines.
-//! The map is bounded, so memory and time stay flat over long runs.
+//! The map is bounded, so memory and time stay flat over long runs. When the camera
+//! comes back to a place, [`loop_closing`] finds it (bag of words and position),
+//! verifies it, optimises a pose graph over the keyframes and moves the landmarks; the
+//! tracker takes the correction into `map_from_odom` (REP 105 `map -> odom`) so that the
+//! poses it publishes stay continuous, and [`FinalTrajectory`] gives every frame the
+//! corrections that came after it.
 //!
 //! **Use.** [`Odometry::process`] runs tracking and mapping in the caller's thread; the
 //! pipeline runs the two halves of [`session`] as two services that exchange keyframe
@@ -29,10 +34,12 @@
 mod config;
 mod depth_alignment;
 mod depth_grid;
+mod final_trajectory;
 mod frame;
 mod frontend;
 mod keyframe_policy;
 mod local_ba;
+pub mod loop_closing;
 mod manhattan;
 pub mod map;
 mod mapper;
@@ -55,11 +62,14 @@ mod testing;
 mod tracker;
 mod validate;
 
-pub use config::{KeyframeConfig, MappingConfig, OdometryConfig, TrackingConfig};
+pub use config::{
+    KeyframeConfig, LoopClosingConfig, MappingConfig, OdometryConfig, TrackingConfig,
+};
 pub use depth_alignment::{
     DepthAlignmentConfig, DepthAssociator, kinect_depth_sigma, self_information,
 };
 pub use depth_grid::DepthGrid;
+pub use final_trajectory::FinalTrajectory;
 pub use frame::{FeatureError, FrameFeatures, FrameSurfaces};
 pub use frontend::{DEPTH_GRID_STEP, Frontend, FrontendError, FrontendTimings, StructureExtractor};
 pub use keyframe_policy::{KeyframeContext, needs_keyframe};
@@ -67,7 +77,7 @@ pub use manhattan::WorldManhattan;
 pub use mapper::Mapper;
 pub use messages_check::MessageError;
 pub use motion::MotionModel;
-pub use odometry::{Odometry, OdometryTimings};
+pub use odometry::{FrameAnchor, Odometry, OdometryTimings};
 pub use plane_association::{PlaneAssociator, PlaneTrackingConfig};
 pub use pose_solver::Inliers;
 pub use relocalise::{Relocalisation, relocalise};

@@ -112,6 +112,7 @@ impl Mapper {
             point_ids: frame.point_ids.clone(),
             line_ids: frame.line_ids.clone(),
             plane_ids: frame.plane_ids.clone(),
+            loop_correction: nalgebra::Isometry3::identity(),
         };
         let kf = map.insert_keyframe(keyframe);
         for id in frame.point_ids.iter().flatten() {
@@ -265,6 +266,19 @@ impl Mapper {
             .collect();
         for id in bad_lines {
             map.remove_landmark(id);
+        }
+    }
+
+    /// Fuses duplicates around keyframe `kf` after a loop correction brought the two
+    /// sides of the loop together: into `kf` and into each of its connected keyframes,
+    /// the points of their covisible keyframes.
+    pub fn fuse_around(&mut self, map: &mut Map, kf: KeyFrameId) {
+        let around: Vec<KeyFrameId> = std::iter::once(kf)
+            .chain(map.connected(kf).into_iter().map(|(k, _)| k))
+            .take(FUSE_NEIGHBOURS + 1)
+            .collect();
+        for k in around {
+            self.fuse(map, k);
         }
     }
 

@@ -88,6 +88,15 @@ impl MotionModel {
         self.velocity.as_ref()
     }
 
+    /// Re-expresses the last pose in a corrected world (`new_from_old`, a loop
+    /// correction); the velocity is relative to the camera and stays.
+    pub fn shift_world(&mut self, new_from_old: &Isometry3<f64>) {
+        if let Some(last) = &mut self.last {
+            *last *= new_from_old.inverse();
+            last.rotation.renormalize();
+        }
+    }
+
     /// Forgets the velocity (after a relocalisation the last motion means nothing).
     pub fn reset_velocity(&mut self) {
         self.velocity = None;

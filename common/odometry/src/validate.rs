@@ -2,7 +2,9 @@
 //! `[keyframes]`, `[mapping]`, `[mapping.ba]`), run when a config is read, so that a
 //! value that would make every frame fail is an error naming its field.
 
-use crate::config::{KeyframeConfig, MappingConfig, OdometryConfig, TrackingConfig};
+use crate::config::{
+    KeyframeConfig, LoopClosingConfig, MappingConfig, OdometryConfig, TrackingConfig,
+};
 use crate::frame::FrameFeatures;
 use gfs_core::fields::{FieldError, Table};
 use gfs_optim::BaConfig;
@@ -18,7 +20,8 @@ impl OdometryConfig {
     pub fn validate(&self) -> Result<(), FieldError> {
         self.tracking.validate()?;
         self.keyframes.validate()?;
-        self.mapping.validate()
+        self.mapping.validate()?;
+        self.loop_closing.validate()
     }
 }
 
@@ -151,6 +154,22 @@ impl MappingConfig {
     }
 }
 
+impl LoopClosingConfig {
+    /// Checks `[loop_closing]`.
+    ///
+    /// # Errors
+    /// [`FieldError`] naming the first field out of range.
+    pub fn validate(&self) -> Result<(), FieldError> {
+        let t = Table("loop_closing");
+        t.at_least("min_keyframe_gap", self.min_keyframe_gap, 1)?;
+        t.positive("search_radius_m", self.search_radius_m)?;
+        t.within("search_angle_deg", self.search_angle_deg, 0.0, 180.0)?;
+        t.at_least("max_candidates", self.max_candidates as u64, 1)?;
+        t.at_least("consistent_keyframes", self.consistent_keyframes.into(), 1)?;
+        t.at_least("min_inliers", self.min_inliers as u64, 6)
+    }
+}
+
 fn validate_ba(ba: &BaConfig) -> Result<(), FieldError> {
     let t = Table("mapping.ba");
     t.within(
@@ -227,6 +246,12 @@ mod tests {
         assert_eq!(
             c.validate().unwrap_err().field,
             "tracking.depth.weak_sigma_m"
+        );
+        let mut c = OdometryConfig::default();
+        c.loop_closing.search_radius_m = -1.0;
+        assert_eq!(
+            c.validate().unwrap_err().field,
+            "loop_closing.search_radius_m"
         );
     }
 }

@@ -36,6 +36,9 @@ pub struct Config {
     /// `[mapping]`: landmark creation and the local BA.
     #[serde(default)]
     pub mapping: gfs_odometry::MappingConfig,
+    /// `[loop_closing]`: loop detection, verification and the pose-graph correction.
+    #[serde(default)]
+    pub loop_closing: gfs_odometry::LoopClosingConfig,
     /// `[pipeline]`: deadlines, resends and the restart policy of the stage services.
     #[serde(default)]
     pub pipeline: PipelineConfig,
@@ -253,6 +256,7 @@ impl Config {
             },
             keyframes: self.keyframes.clone(),
             mapping: self.mapping.clone(),
+            loop_closing: self.loop_closing.clone(),
         }
     }
 

@@ -40,6 +40,9 @@ pub struct StageArgs {
     /// Ablation: no Manhattan axes.
     #[arg(long)]
     pub no_manhattan: bool,
+    /// Ablation: no loop closing.
+    #[arg(long)]
+    pub no_loop_closing: bool,
     /// Log filter (error, warn, info, debug, trace).
     #[arg(long, default_value = "warn", env = "GFSVO_LOG")]
     pub log: String,
@@ -54,6 +57,7 @@ impl StageArgs {
         let mut config = Config::load(self.config.as_deref(), &self.dataset)?;
         config.tracking.use_lines &= !self.no_lines;
         config.tracking.use_manhattan &= !self.no_manhattan;
+        config.loop_closing.enabled &= !self.no_loop_closing;
         Ok(StageSettings {
             config,
             mode: if self.mode == "realtime" {

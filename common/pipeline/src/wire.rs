@@ -187,6 +187,10 @@ pub struct WirePose {
     /// Upper triangle (row by row) of the pose's 6x6 covariance from its optimisation
     /// (camera-frame translation then rotation); all zero when unknown (predicted).
     pub covariance: [f64; 21],
+    /// The loop corrections so far, `map_from_odom` (REP 105 `map -> odom`): translation
+    /// x y z then quaternion x y z w; all zero for the identity (no loop closed). The
+    /// pose above is the continuous `odom` pose.
+    pub map_from_odom: [f64; 7],
 }
 
 impl WirePose {
@@ -209,6 +213,28 @@ impl WirePose {
             },
             keyframe: u32::from(keyframe),
             covariance: [0.0; 21],
+            map_from_odom: [0.0; 7],
+        }
+    }
+
+    /// The same pose with the tracker's loop corrections (`map_from_odom`).
+    pub fn with_map_from_odom(mut self, map_from_odom: &Isometry3<f64>) -> Self {
+        if *map_from_odom != Isometry3::identity() {
+            let t = map_from_odom.translation.vector;
+            let q = map_from_odom.rotation.coords;
+            self.map_from_odom = [t.x, t.y, t.z, q.x, q.y, q.z, q.w];
+        }
+        self
+    }
+
+    /// `map_from_odom`: the identity when none was sent or the field is not valid.
+    pub fn map_from_odom(&self) -> Isometry3<f64> {
+        let [x, y, z, qx, qy, qz, qw] = self.map_from_odom;
+        match unit_quaternion(&[qx, qy, qz, qw]) {
+            Some(rotation) if [x, y, z].iter().all(|v| v.is_finite()) => {
+                Isometry3::from_parts(Translation3::new(x, y, z), rotation)
+            }
+            _ => Isometry3::identity(),
         }
     }
 
@@ -328,7 +354,19 @@ mod tests {
         assert_eq!(WirePose::new(&pose, None, false).predicted_rotation(), None);
         assert_eq!(w.covariance(), None);
         // deploy/iceoryx2.toml documents the layout for other languages.
-        assert_eq!(std::mem::size_of::<WirePose>(), 280);
+        assert_eq!(std::mem::size_of::<WirePose>(), 336);
+        assert_eq!(w.map_from_odom(), Isometry3::identity());
+        let m = Isometry3::new(
+            nalgebra::Vector3::new(0.02, 0.0, -0.01),
+            nalgebra::Vector3::new(0.0, 0.01, 0.0),
+        );
+        let corrected = w.with_map_from_odom(&m).map_from_odom();
+        assert!(
+            (corrected.to_homogeneous() - m.to_homogeneous())
+                .abs()
+                .max()
+                < 1e-12
+        );
         let c = Matrix6::from_fn(|r, k| 1.0 / (1.0 + r as f64 + k as f64));
         assert_eq!(w.with_covariance(Some(&c)).covariance(), Some(c));
         let mut bad = w.with_covariance(Some(&c));

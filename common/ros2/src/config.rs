@@ -34,6 +34,9 @@ pub struct Ros2Config {
     pub status_topic: String,
     /// `header.frame_id` of the odometry (REP 105 `odom`).
     pub odom_frame: String,
+    /// Parent frame of the loop correction `map -> odom` on `/tf` (REP 105 `map`),
+    /// published once a loop closed.
+    pub map_frame: String,
     /// `child_frame_id`: the robot body frame (REP 105 `base_link`).
     pub base_frame: String,
     /// Publish `odom -> base_frame` on `/tf`.
@@ -63,6 +66,7 @@ impl Default for Ros2Config {
             tf_topic: "/tf".to_owned(),
             status_topic: "/gfsvo/status".to_owned(),
             odom_frame: "odom".to_owned(),
+            map_frame: "map".to_owned(),
             base_frame: "base_link".to_owned(),
             publish_tf: true,
             camera_in_base: OPTICAL_IN_BASE,

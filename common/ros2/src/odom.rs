@@ -26,6 +26,9 @@ pub struct TrackedPose {
     pub covariance: Option<Matrix6<f64>>,
     /// `tracked`, `degraded`, `predicted`, `relocalised`.
     pub status: &'static str,
+    /// The loop corrections so far in the pipeline's world (`map_from_odom`; the
+    /// identity until a loop closes).
+    pub map_from_odom: Isometry3<f64>,
 }
 
 /// Covariance published when the optimisation gave none (a predicted frame): 1 m and
@@ -45,7 +48,8 @@ pub struct OdometryPublisherState {
 pub struct FrameMessages {
     /// `/odom`, `None` when lost and `when_lost = "nothing"`.
     pub odometry: Option<Odometry>,
-    /// `/tf` (odom -> base), when `publish_tf` and there is an odometry.
+    /// `/tf` (odom -> base, and map -> odom once a loop closed), when `publish_tf` and
+    /// there is an odometry.
     pub tf: Option<TfMessage>,
     /// Status text.
     pub status: StringMsg,
@@ -132,12 +136,26 @@ impl OdometryPublisherState {
                 covariance: row_major(&twist.1),
             },
         };
-        let tf = self.config.publish_tf.then(|| TfMessage {
-            transforms: vec![TransformStamped {
-                header,
+        let tf = self.config.publish_tf.then(|| {
+            let mut transforms = vec![TransformStamped {
+                header: header.clone(),
                 child_frame_id: self.config.base_frame.clone(),
                 transform,
-            }],
+            }];
+            if pose.map_from_odom != Isometry3::identity() {
+                // The same change of axes as the poses: odom is the base at the first
+                // image, and so is map before any correction.
+                let b = self.camera_in_base;
+                transforms.push(TransformStamped {
+                    header: Header {
+                        frame_id: self.config.map_frame.clone(),
+                        ..header
+                    },
+                    child_frame_id: self.config.odom_frame.clone(),
+                    transform: to_transform(&(b * pose.map_from_odom * b.inverse())),
+                });
+            }
+            TfMessage { transforms }
         });
         FrameMessages {
             odometry: Some(odometry),

@@ -10,6 +10,7 @@ fn pose(stamp: f64, x_optical_z: f64, status: &'static str) -> TrackedPose {
             1.0, 2.0, 3.0, 4.0, 5.0, 6.0,
         ))),
         status,
+        map_from_odom: Isometry3::identity(),
     }
 }
 
@@ -107,4 +108,37 @@ fn odometry_survives_a_cdr_round_trip_byte_for_byte() {
     assert!(crate::cdr::decode::<Odometry>(&bytes[..40], "Odometry").is_err());
     assert!(crate::cdr::decode::<Odometry>(&[0, 0, 0, 0, 1], "Odometry").is_err());
     assert!(crate::cdr::decode::<Odometry>(&[0, 1], "Odometry").is_err());
+}
+
+#[test]
+fn a_loop_correction_is_published_as_map_to_odom_in_base_axes() {
+    let mut state = OdometryPublisherState::new(&Ros2Config::default());
+    assert_eq!(
+        state
+            .messages(&pose(1.0, 0.0, "tracked"))
+            .tf
+            .unwrap()
+            .transforms
+            .len(),
+        1
+    );
+    // 5 cm along the optical z (forward) in the pipeline's world: along the base's x.
+    let corrected = TrackedPose {
+        map_from_odom: Isometry3::translation(0.0, 0.0, 0.05),
+        ..pose(2.0, 0.1, "tracked")
+    };
+    let tf = state.messages(&corrected).tf.unwrap();
+    let map_to_odom = &tf.transforms[1];
+    assert_eq!(
+        (
+            map_to_odom.header.frame_id.as_str(),
+            map_to_odom.child_frame_id.as_str()
+        ),
+        ("map", "odom")
+    );
+    let t = &map_to_odom.transform.translation;
+    assert!(
+        (t.x - 0.05).abs() < 1e-12 && t.y.abs() < 1e-12 && t.z.abs() < 1e-12,
+        "{t:?}"
+    );
 }

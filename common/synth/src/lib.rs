@@ -37,6 +37,7 @@
 //! ```
 #![warn(missing_docs)]
 
+mod circuit;
 mod error;
 mod noise;
 mod render;

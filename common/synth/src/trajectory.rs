@@ -11,6 +11,7 @@
 //!
 //! [`MIN_CLEARANCE`]: crate::MIN_CLEARANCE
 
+use crate::circuit;
 use crate::rng::SplitMix64;
 use crate::scene::Scene;
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
@@ -29,22 +30,28 @@ pub enum TrajectoryKind {
     Fast,
     /// Mostly rotation in place (like TUM fr1_rpy): about 0.05 m/s and 40 deg/s.
     Rotation,
+    /// Laps around the room looking at the walls, one every 12 s (360 frames at 30 Hz):
+    /// about 0.4 m/s and 30 deg/s; every place is seen again a lap later
+    /// ([`crate::circuit`]).
+    Loop,
 }
 
 impl TrajectoryKind {
     /// All kinds, in CLI order.
-    pub const ALL: [TrajectoryKind; 3] = [
+    pub const ALL: [TrajectoryKind; 4] = [
         TrajectoryKind::Slow,
         TrajectoryKind::Fast,
         TrajectoryKind::Rotation,
+        TrajectoryKind::Loop,
     ];
 
-    /// The CLI / folder name (`slow`, `fast`, `rotation`).
+    /// The CLI / folder name (`slow`, `fast`, `rotation`, `loop`).
     pub fn name(self) -> &'static str {
         match self {
             TrajectoryKind::Slow => "slow",
             TrajectoryKind::Fast => "fast",
             TrajectoryKind::Rotation => "rotation",
+            TrajectoryKind::Loop => "loop",
         }
     }
 
@@ -54,6 +61,7 @@ impl TrajectoryKind {
             TrajectoryKind::Slow => (0.2, 15.0),
             TrajectoryKind::Fast => (0.6, 45.0),
             TrajectoryKind::Rotation => (0.05, 40.0),
+            TrajectoryKind::Loop => circuit::MEAN_SPEEDS,
         }
     }
 
@@ -61,7 +69,10 @@ impl TrajectoryKind {
     /// fraction of the free-space half extents the position sums span.
     fn amplitudes(self) -> ([f64; 3], f64) {
         match self {
-            TrajectoryKind::Slow | TrajectoryKind::Fast => ([0.9, 0.2, 0.06], 1.0),
+            // Loop has its own shape (crate::circuit); these are not used for it.
+            TrajectoryKind::Slow | TrajectoryKind::Fast | TrajectoryKind::Loop => {
+                ([0.9, 0.2, 0.06], 1.0)
+            }
             TrajectoryKind::Rotation => ([0.6, 0.35, 0.4], 0.15),
         }
     }
@@ -165,6 +176,25 @@ pub(crate) fn generate(
     rate_hz: f64,
 ) -> Vec<Isometry3<f64>> {
     let mut rng = SplitMix64::keyed(seed, &[0x0072_616a, kind as u64]);
+    if kind == TrajectoryKind::Loop {
+        let phase = [0; 6].map(|_| rng.range(0.0, TAU));
+        let tremor = |t: f64| {
+            let at = |k: usize| (TAU * TREMOR_HZ[k % 2] * t + phase[k]).sin();
+            (
+                Vector3::new(at(0), at(1), at(2)) * TREMOR_M,
+                [at(3), at(4), at(5)].map(|x| x * TREMOR_RAD),
+            )
+        };
+        return circuit::generate(
+            scene,
+            frames,
+            seed,
+            rate_hz,
+            camera_in_body(),
+            BASE_PITCH,
+            tremor,
+        );
+    }
     let free = scene.free_space();
     let (amplitudes, spread) = kind.amplitudes();
     // Keep the tremor inside the free box too.

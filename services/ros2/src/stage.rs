@@ -133,6 +133,7 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
                 world_from_camera: pose.world_from_camera,
                 covariance: wire.covariance(),
                 status: pose.status.as_str(),
+                map_from_odom: wire.map_from_odom(),
             });
             if let Some(odom) = messages.odometry {
                 publish(dds.odom.publish(odom), &ros2.odom_topic);

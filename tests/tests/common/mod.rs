@@ -62,6 +62,8 @@ pub fn sequence() -> &'static Path {
 pub struct Outcome {
     pub success: bool,
     pub ate: f64,
+    /// ATE of `odometry.txt`, when loop corrections made it differ from the trajectory.
+    pub odometry_ate: Option<f64>,
     pub degraded: u64,
     pub trajectory: String,
     pub restarts: BTreeMap<String, u64>,
@@ -70,11 +72,16 @@ pub struct Outcome {
 }
 
 pub fn start(bin: &Path, run_id: &str, out: &Path, extra: &[&str]) -> Child {
+    start_on(bin, sequence(), run_id, out, extra)
+}
+
+/// [`start`] on another dataset folder.
+pub fn start_on(bin: &Path, dataset: &Path, run_id: &str, out: &Path, extra: &[&str]) -> Child {
     let _ = std::fs::remove_dir_all(out);
     std::fs::create_dir_all(out).unwrap();
     Command::new(bin.join("gfsvo"))
         .arg("run")
-        .arg(sequence())
+        .arg(dataset)
         .arg("--out")
         .arg(out)
         .args(["--run-id", run_id, "--json", "--log", "warn"])
@@ -108,6 +115,7 @@ pub fn finish(child: Child, out: &Path, run_id: &str) -> Outcome {
     Outcome {
         success: output.status.success(),
         ate: json["ate_rmse_m"].as_f64().unwrap_or(f64::INFINITY),
+        odometry_ate: json["odometry_ate_rmse_m"].as_f64(),
         degraded: json["status"]["degraded"].as_u64().unwrap_or(0),
         trajectory,
         restarts,
@@ -210,4 +218,24 @@ pub fn gfsvo(args: &[&str]) -> std::process::Output {
         .stdin(Stdio::null())
         .output()
         .unwrap()
+}
+
+/// Kills `stage` with SIGKILL when frames `at` are reached; returns the kills done.
+pub fn kill_at(run_id: &str, out: &Path, stage: &str, at: &[u64], child: &mut Child) -> usize {
+    let mut watch = PoseWatch::new(run_id);
+    let mut kills = 0;
+    for &frame in at {
+        if !watch.reach(frame, child) {
+            break;
+        }
+        let Some(pid) = pid_of(out, stage) else { break };
+        // SAFETY: kill(2) has no memory effects.
+        assert_eq!(unsafe { libc::kill(pid, libc::SIGKILL) }, 0, "kill {stage}");
+        kills += 1;
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while pid_of(out, stage) == Some(pid) && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+    kills
 }

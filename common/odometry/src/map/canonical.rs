@@ -14,6 +14,7 @@ impl Map {
         canonicalise_arena(&mut self.points.items);
         canonicalise_arena(&mut self.lines.items);
         canonicalise_arena(&mut self.planes.items);
+        canonicalise_arena(&mut self.retired);
     }
 }
 

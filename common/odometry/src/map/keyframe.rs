@@ -21,6 +21,10 @@ pub struct KeyFrame {
     /// For each plane of the frame, the map plane it observes.
     #[serde(default)]
     pub plane_ids: Vec<Option<MapPlaneId>>,
+    /// The loop corrections it received (`new_from_old`, world frame, composed):
+    /// identity until a loop closes.
+    #[serde(default = "Isometry3::identity")]
+    pub loop_correction: Isometry3<f64>,
 }
 
 impl KeyFrame {

@@ -4,11 +4,13 @@
 
 mod arena;
 mod canonical;
+mod correction;
 mod keyframe;
 mod landmark;
 mod line;
 mod plane;
 mod point;
+mod retired;
 #[cfg(test)]
 mod tests;
 
@@ -18,6 +20,7 @@ pub use landmark::{Described, Landmark, LandmarkId, Store};
 pub use line::MapLine;
 pub use plane::{MapPlane, plane_in_world};
 pub use point::MapPoint;
+pub use retired::RetiredKeyFrame;
 
 use gfs_core::ids::{KeyFrameId, MapLineId, MapPlaneId, MapPointId};
 
@@ -36,6 +39,11 @@ pub struct Map {
     #[serde(default)]
     planes: Store<MapPlane>,
     next_keyframe: u64,
+    /// Keyframes removed from the map, each anchored to a keyframe kept at that time, so
+    /// that a frame whose reference keyframe went still gets its final pose.
+    retired: IdMap<KeyFrameId, RetiredKeyFrame>,
+    /// Loop corrections applied so far.
+    corrections: u64,
 }
 
 impl Map {
@@ -155,8 +163,13 @@ impl Map {
         }
     }
 
-    /// Removes a keyframe; landmarks it alone observed go with it.
+    /// Removes a keyframe; landmarks it alone observed go with it. It is retired
+    /// relative to its strongest covisible keyframe (or the newest older one).
     pub fn remove_keyframe(&mut self, id: KeyFrameId) {
+        if !self.keyframes.contains_key(&id) {
+            return;
+        }
+        self.retire(id);
         let Some(kf) = self.keyframes.remove(&id) else {
             return;
         };

@@ -56,6 +56,7 @@ fn keyframe(n: usize) -> KeyFrame {
         point_ids: vec![None; n],
         line_ids: Vec::new(),
         plane_ids: Vec::new(),
+        loop_correction: Isometry3::identity(),
         features: crate::frame::FrameFeatures {
             id: FrameId(0),
             ..features
@@ -188,6 +189,7 @@ fn covisibility_counts_shared_landmarks_and_connected_keeps_the_strong_ones() {
         point_ids: frame.point_ids.clone(),
         line_ids: frame.line_ids.clone(),
         plane_ids: Vec::new(),
+        loop_correction: Isometry3::identity(),
     });
     assert_eq!(map.covisible(k0, 1), vec![(k1, 22)]);
     assert_eq!(map.covisible(k0, 23), Vec::new());
@@ -231,4 +233,23 @@ fn canonical_copies_encode_alike_however_they_were_built() {
         bincode::serde::decode_from_slice(&encode(&copy), config).expect("decode");
     decoded.canonicalise();
     assert_eq!(encode(&map), encode(&decoded));
+}
+
+#[test]
+fn a_loop_correction_moves_a_plane_with_its_keyframe() {
+    let mut map = Map::default();
+    let mut kf = keyframe(1);
+    kf.plane_ids = vec![None];
+    let kf = map.insert_keyframe(kf);
+    // The floor 1.5 m below the camera (y down): n = (0, -1, 0), offset 1.5.
+    let id = map
+        .insert_landmark(MapPlane::new(-Vector3::y(), 1.5), kf, 0)
+        .expect("free plane slot");
+    let on_floor = Point3::new(0.4, 1.5, 2.0);
+    let t = Isometry3::new(Vector3::new(0.1, -0.2, 0.3), Vector3::new(0.05, 0.2, -0.1));
+    map.move_landmarks(|k| (k == kf).then_some(t));
+    let plane = map.plane(id).expect("plane kept");
+    let moved = t * on_floor;
+    assert!((plane.normal - t.rotation * -Vector3::y()).norm() < 1e-12);
+    assert!((plane.normal.dot(&moved.coords) + plane.offset).abs() < 1e-12);
 }

@@ -3,6 +3,7 @@
 
 use super::messages::{KeyFrameRequest, MapUpdate, MapUpdateRef};
 use crate::config::OdometryConfig;
+use crate::loop_closing::{LoopCloser, LoopClosure};
 use crate::manhattan::WorldManhattan;
 use crate::map::Map;
 use crate::mapper::Mapper;
@@ -13,6 +14,8 @@ use gfs_core::ids::KeyFrameId;
 /// Owns the map and runs local mapping on keyframe requests.
 pub struct MappingSession {
     mapper: Mapper,
+    loops: LoopCloser,
+    closures: Vec<LoopClosure>,
     map: Map,
     manhattan: WorldManhattan,
     last_applied: u64,
@@ -28,8 +31,11 @@ impl MappingSession {
         scale_factor: f64,
         levels: u8,
     ) -> Self {
+        let scale = ScalePyramid::new(scale_factor, levels);
         Self {
-            mapper: Mapper::new(config, camera, ScalePyramid::new(scale_factor, levels)),
+            mapper: Mapper::new(config, camera, scale),
+            loops: LoopCloser::new(config, camera, scale),
+            closures: Vec::new(),
             manhattan: WorldManhattan::new(config.tracking.use_manhattan),
             map: Map::default(),
             last_applied: 0,
@@ -40,6 +46,11 @@ impl MappingSession {
     /// The map.
     pub fn map(&self) -> &Map {
         &self.map
+    }
+
+    /// The loops closed so far (since this mapping half started).
+    pub fn closures(&self) -> &[LoopClosure] {
+        &self.closures
     }
 
     /// The number of the last request applied (0 before the first).
@@ -74,6 +85,10 @@ impl MappingSession {
                 &mut self.manhattan,
                 stop,
             );
+            if let Some(closure) = self.loops.after_keyframe(&mut self.map, kf) {
+                self.mapper.fuse_around(&mut self.map, kf);
+                self.closures.push(closure);
+            }
             // A canonical layout, as a mapper restarted from this map will have: local
             // mapping then goes on the same whether or not the mapper was restarted.
             self.map.canonicalise();

@@ -20,14 +20,16 @@ use gfs_lines::grid::GridConfig;
 use nalgebra::{Isometry3, Rotation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
-/// The pose of one frame, as written to the trajectory.
+/// The pose of one frame, as published.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FramePose {
     /// The frame.
     pub id: FrameId,
     /// Its capture time, seconds.
     pub timestamp: f64,
-    /// `world_from_camera` (T_wc).
+    /// `world_from_camera` (T_wc) in the odometry frame (REP 105 `odom`): continuous,
+    /// loop corrections never move it; the map pose is `map_from_odom * this`
+    /// ([`TrackingSession::map_from_odom`]). Equal to the map pose until a loop closes.
     pub world_from_camera: Isometry3<f64>,
     /// How the pose was obtained.
     pub status: TrackingStatus,
@@ -85,6 +87,9 @@ pub struct TrackingCheckpoint {
     pub sightings: Sightings,
     /// The world Manhattan axes.
     pub manhattan: WorldManhattan,
+    /// The loop corrections so far, `map_from_odom`.
+    #[serde(default = "Isometry3::identity")]
+    pub map_from_odom: Isometry3<f64>,
 }
 
 /// Tracks frames against a copy of the map that the mapping half keeps up to date.
@@ -97,6 +102,11 @@ pub struct TrackingSession {
     state: TrackingState,
     requests: RequestLedger,
     frames_since_keyframe: u32,
+    map_from_odom: Isometry3<f64>,
+    /// `camera_from_world` of the frame of the pending keyframe request, as tracked: the
+    /// exact old pose of the keyframe the answer creates (not checkpointed; a restarted
+    /// tracker falls back on the keyframes both maps hold).
+    requested_pose: Option<Isometry3<f64>>,
 }
 
 impl TrackingSession {
@@ -118,8 +128,21 @@ impl TrackingSession {
             state: TrackingState::default(),
             requests: RequestLedger::default(),
             frames_since_keyframe: 0,
+            map_from_odom: Isometry3::identity(),
+            requested_pose: None,
             config,
         }
+    }
+
+    /// The loop corrections taken in so far (REP 105 `map -> odom`): the map pose of a
+    /// frame is `map_from_odom * FramePose::world_from_camera`.
+    pub fn map_from_odom(&self) -> &Isometry3<f64> {
+        &self.map_from_odom
+    }
+
+    /// The reference keyframe of the last frame.
+    pub fn reference(&self) -> Option<KeyFrameId> {
+        self.tracker.reference()
     }
 
     /// The map the tracker tracks against.
@@ -171,7 +194,10 @@ impl TrackingSession {
             ..FrameFeatures::default()
         };
         let frame = TrackedFrame::untracked(features, camera_from_world);
-        let pose = FramePose::of(&frame);
+        let mut pose = FramePose::of(&frame);
+        if self.map_from_odom != Isometry3::identity() {
+            pose.world_from_camera = self.map_from_odom.inverse() * pose.world_from_camera;
+        }
         self.tracker.finish_frame(frame);
         pose
     }
@@ -225,7 +251,10 @@ impl TrackingSession {
             keyframes = self.map.keyframe_count(),
             "tracked"
         );
-        let pose = FramePose::of(&frame);
+        let mut pose = FramePose::of(&frame);
+        if self.map_from_odom != Isometry3::identity() {
+            pose.world_from_camera = self.map_from_odom.inverse() * pose.world_from_camera;
+        }
         let reset = start.is_some_and(|s| s.reset);
         let keyframe = wants_keyframe.then(|| self.request_keyframe(&frame, reset));
         let covariance = tracked.then(|| self.tracker.pose_covariance()).flatten();
@@ -280,6 +309,13 @@ impl TrackingSession {
         if receipt == MapReceipt::Ignored {
             return false;
         }
+        if update.map.corrections() != self.map.corrections() {
+            let answered = update
+                .keyframe
+                .filter(|_| receipt == MapReceipt::Answer)
+                .zip(self.requested_pose);
+            self.take_correction(&update.map, answered);
+        }
         self.map = update.map;
         self.map.canonicalise();
         self.manhattan = update.manhattan;
@@ -293,6 +329,33 @@ impl TrackingSession {
         true
     }
 
+    /// A map whose loop corrections differ from the held one's moved its keyframes: the
+    /// keyframe the map answers (`answered`, with its frame's tracked `camera_from_world`)
+    /// or else the newest keyframe both maps hold says how the world moved around the
+    /// camera (`new_from_old`); the last frame and the motion model follow it, and so does
+    /// `map_from_odom`, so that the published odometry does not jump.
+    fn take_correction(&mut self, corrected: &Map, answered: Option<(KeyFrameId, Isometry3<f64>)>) {
+        let from_answer = answered.and_then(|(kf, camera_from_world)| {
+            Some(corrected.keyframe(kf)?.world_from_camera() * camera_from_world)
+        });
+        let moved = from_answer.or_else(|| {
+            corrected.keyframe_ids().into_iter().rev().find_map(|kf| {
+                let old = self.map.keyframe(kf)?;
+                let new = corrected.keyframe(kf)?;
+                Some(new.world_from_camera() * old.camera_from_world)
+            })
+        });
+        let Some(new_from_old) = moved else {
+            return;
+        };
+        self.tracker.shift_world(&new_from_old);
+        self.map_from_odom = new_from_old * self.map_from_odom;
+        tracing::info!(
+            shift_m = new_from_old.translation.vector.norm(),
+            "loop correction taken in"
+        );
+    }
+
     /// The state a restarted tracker resumes from (with a map from the mapper).
     pub fn checkpoint(&self) -> TrackingCheckpoint {
         TrackingCheckpoint {
@@ -304,6 +367,7 @@ impl TrackingSession {
             frames_since_keyframe: self.frames_since_keyframe,
             sightings: self.sightings.clone(),
             manhattan: self.manhattan.clone(),
+            map_from_odom: self.map_from_odom,
         }
     }
 
@@ -317,6 +381,7 @@ impl TrackingSession {
         self.manhattan = checkpoint.manhattan;
         self.sightings = checkpoint.sightings;
         self.state = checkpoint.state;
+        self.map_from_odom = checkpoint.map_from_odom;
         match map {
             Some(update) => {
                 self.map = update.map;
@@ -339,6 +404,7 @@ impl TrackingSession {
     }
 
     fn request_keyframe(&mut self, frame: &TrackedFrame, reset: bool) -> KeyFrameRequest {
+        self.requested_pose = Some(frame.camera_from_world);
         KeyFrameRequest {
             seq: self.requests.open(frame.features.id),
             frame: frame.clone(),

@@ -171,6 +171,15 @@ impl Tracker {
         &self.motion
     }
 
+    /// Re-expresses the last frame and the motion model in a corrected world
+    /// (`new_from_old`, a loop correction), so that tracking goes on in the corrected map.
+    pub fn shift_world(&mut self, new_from_old: &Isometry3<f64>) {
+        self.motion.shift_world(new_from_old);
+        if let Some(last) = &mut self.last {
+            last.camera_from_world *= new_from_old.inverse();
+        }
+    }
+
     /// Resumes from a checkpoint: the motion model and the last frame as they were.
     pub fn restore(&mut self, motion: MotionModel, last: TrackedFrame) {
         self.motion = motion;

@@ -143,8 +143,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         header.mark_finished(Stage::Tracker);
         let predicted = session.predicted_quaternion();
-        let wire =
-            WirePose::new(&pose, predicted.as_ref(), keyframe).with_covariance(covariance.as_ref());
+        let wire = WirePose::new(&pose, predicted.as_ref(), keyframe)
+            .with_covariance(covariance.as_ref())
+            .with_map_from_odom(session.map_from_odom());
         ports.poses.publish_slice(&header, &[wire])?;
         ctx.made(id.0);
         state.write(CHECKPOINT, &session.checkpoint(), &mut scratch)?;

@@ -120,6 +120,7 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
         config_path: Some(config_path),
         no_lines: false,
         no_manhattan: false,
+        no_loop_closing: false,
         run_id,
         log: log.to_owned(),
         threads: false,

@@ -164,6 +164,8 @@ pub fn record_mcap(
             world_from_camera: pose.world_from_camera,
             covariance: covariances.get(&pose.id.0).copied(),
             status: pose.status.as_str(),
+            // The recorder sees the published (odom) poses only.
+            map_from_odom: nalgebra::Isometry3::identity(),
         });
         let time = (pose.timestamp.max(0.0) * 1e9).round() as u64;
         if let Some(odometry) = &messages.odometry {

@@ -25,6 +25,7 @@ which `gfsvo` picks up when it reads the folder).\n\n\
 The same flags and seed always give the same images, bit for bit.\n\n\
 Examples:\n  gfsvo synth                                   # room, slow, 300 frames, mild noise\n  \
 gfsvo synth --scene corridor --traj fast --frames 600 --seed 7\n  \
+gfsvo synth --traj loop --frames 1081          # three laps of the room, back at the start\n  \
 gfsvo synth --scene low-texture --clean --out /tmp/lowtex   # exact depth, clean colour")]
 pub struct SynthArgs {
     /// Scene: `room` (textured: bricks, posters, shelves, tiles), `low-texture` (plain
@@ -32,7 +33,10 @@ pub struct SynthArgs {
     #[arg(long, value_enum, default_value_t = SceneArg::Room)]
     scene: SceneArg,
     /// Camera motion: `slow` (~0.2 m/s, ~15 deg/s), `fast` (~0.6 m/s, ~45 deg/s),
-    /// `rotation` (mostly rotation in place, ~40 deg/s, like TUM fr1_rpy).
+    /// `rotation` (mostly rotation in place, ~40 deg/s, like TUM fr1_rpy), `loop` (laps
+    /// around the room looking at the walls, one per 360 frames, ~0.4 m/s, 30 deg/s:
+    /// every place is seen again a lap later; `--frames 1081` is three laps, back at the
+    /// start).
     #[arg(long, value_enum, default_value_t = TrajArg::Slow)]
     traj: TrajArg,
     /// Number of frames (30 per second).
@@ -87,6 +91,7 @@ enum TrajArg {
     Slow,
     Fast,
     Rotation,
+    Loop,
 }
 
 impl SynthArgs {
@@ -128,6 +133,7 @@ impl SynthArgs {
                 TrajArg::Slow => TrajectoryKind::Slow,
                 TrajArg::Fast => TrajectoryKind::Fast,
                 TrajArg::Rotation => TrajectoryKind::Rotation,
+                TrajArg::Loop => TrajectoryKind::Loop,
             },
             frames: self.frames,
             seed: self.seed,

@@ -9,7 +9,7 @@ pub mod signals;
 mod threads;
 mod watchdog;
 
-pub use recorder::{Covariances, Recorder, complete_trajectory};
+pub use recorder::{Corrections, Covariances, Recorder, complete_trajectory, map_poses};
 
 use crate::CliResult;
 use children::StageProcesses;
@@ -41,6 +41,8 @@ pub struct PipelineOptions {
     pub no_lines: bool,
     /// See `no_lines`.
     pub no_manhattan: bool,
+    /// See `no_lines`.
+    pub no_loop_closing: bool,
     /// The run id (iceoryx2 prefix).
     pub run_id: RunId,
     /// Log filter of the stage processes.
@@ -67,6 +69,8 @@ pub struct PipelineOutcome {
     pub received: BTreeMap<u64, FramePose>,
     /// Their covariances (tracked frames), by frame id.
     pub covariances: Covariances,
+    /// The tracker's loop corrections (`map_from_odom`) by frame id, once a loop closed.
+    pub corrections: Corrections,
     /// Stage stamps of every frame.
     pub profile: Profile,
     /// Keyframes made.
@@ -163,7 +167,14 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
     }
 }
 
-type Supervised = CliResult<(Profile, BTreeMap<u64, FramePose>, Covariances, usize, bool)>;
+type Supervised = CliResult<(
+    Profile,
+    BTreeMap<u64, FramePose>,
+    Covariances,
+    Corrections,
+    usize,
+    bool,
+)>;
 
 /// Records poses until the last frame has one (or a signal came), restarting dead
 /// stages on the way.
@@ -201,8 +212,16 @@ fn supervise<S: Service>(
     recorder.drain()?;
     bar.finish_and_clear();
     let keyframes = recorder.keyframes();
+    let corrections = recorder.take_corrections();
     let (profile, received, covariances) = recorder.into_profile();
-    Ok((profile, received, covariances, keyframes, interrupted))
+    Ok((
+        profile,
+        received,
+        covariances,
+        corrections,
+        keyframes,
+        interrupted,
+    ))
 }
 
 fn finish(
@@ -213,10 +232,11 @@ fn finish(
     if !leftovers.is_empty() {
         tracing::warn!("files of the run left behind: {leftovers:?}");
     }
-    let (profile, received, covariances, keyframes, interrupted) = result?;
+    let (profile, received, covariances, corrections, keyframes, interrupted) = result?;
     Ok(PipelineOutcome {
         received,
         covariances,
+        corrections,
         profile,
         keyframes,
         restarts: totals.into_iter().collect(),
@@ -264,6 +284,9 @@ fn stage_args(options: &PipelineOptions) -> Vec<OsString> {
     }
     if options.no_manhattan {
         args.push("--no-manhattan".into());
+    }
+    if options.no_loop_closing {
+        args.push("--no-loop-closing".into());
     }
     args
 }

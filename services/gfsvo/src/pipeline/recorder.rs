@@ -20,9 +20,14 @@ pub struct Recorder<S: Service> {
     maps: TopicSubscriber<S, u8>,
     received: BTreeMap<u64, FramePose>,
     covariances: Covariances,
+    corrections: Corrections,
     keyframes: usize,
     profile: Profile,
 }
+
+/// The tracker's `map_from_odom` by frame id, for the frames published after a loop
+/// closed (earlier frames: the identity).
+pub type Corrections = BTreeMap<u64, nalgebra::Isometry3<f64>>;
 
 impl<S: Service> Recorder<S> {
     /// Subscribes to the run's poses (before the stages start, so none is missed).
@@ -40,6 +45,7 @@ impl<S: Service> Recorder<S> {
             )?,
             received: BTreeMap::new(),
             covariances: BTreeMap::new(),
+            corrections: BTreeMap::new(),
             keyframes: 0,
             profile: Profile::new(label),
         })
@@ -69,6 +75,10 @@ impl<S: Service> Recorder<S> {
                 slot.insert(pose);
                 if let Some(c) = wire.covariance() {
                     self.covariances.insert(pose.id.0, c);
+                }
+                let map_from_odom = wire.map_from_odom();
+                if map_from_odom != nalgebra::Isometry3::identity() {
+                    self.corrections.insert(pose.id.0, map_from_odom);
                 }
                 self.keyframes += wire.keyframe as usize;
                 self.profile.record(&header, pose.status.as_str());
@@ -119,6 +129,26 @@ impl<S: Service> Recorder<S> {
     pub fn into_profile(self) -> (Profile, BTreeMap<u64, FramePose>, Covariances) {
         (self.profile, self.received, self.covariances)
     }
+
+    /// The loop corrections received (taken out).
+    pub fn take_corrections(&mut self) -> Corrections {
+        std::mem::take(&mut self.corrections)
+    }
+}
+
+/// The poses in the map frame as the tracker knew it live: each (odom) pose composed with
+/// the latest `map_from_odom` published at or before its frame.
+pub fn map_poses(poses: &[FramePose], corrections: &Corrections) -> Vec<FramePose> {
+    poses
+        .iter()
+        .map(|pose| match corrections.range(..=pose.id.0).next_back() {
+            Some((_, map_from_odom)) => FramePose {
+                world_from_camera: map_from_odom * pose.world_from_camera,
+                ..*pose
+            },
+            None => *pose,
+        })
+        .collect()
 }
 
 /// One pose per input frame: a frame without a pose from the tracker (dropped in

@@ -54,13 +54,7 @@ pub fn lock_out(out: &Path) -> CliResult<FileLock> {
 /// # Errors
 /// When no frame was tracked: the run produced nothing but guesses.
 pub fn tracked_trajectory(poses: &[FramePose], out: &Path) -> CliResult<Trajectory> {
-    let mut trajectory = Trajectory::new();
-    for pose in poses
-        .iter()
-        .filter(|p| p.status != TrackingStatus::Predicted)
-    {
-        trajectory.push(pose.timestamp, pose.world_from_camera);
-    }
+    let trajectory = tracked_poses(poses);
     if trajectory.is_empty() {
         return Err(format!(
             "no frame of {} was tracked (every pose is predicted; {}/status.txt): are the \
@@ -71,4 +65,16 @@ pub fn tracked_trajectory(poses: &[FramePose], out: &Path) -> CliResult<Trajecto
         .into());
     }
     Ok(trajectory)
+}
+
+/// The poses of every status but `predicted`, as a trajectory (possibly empty).
+pub fn tracked_poses(poses: &[FramePose]) -> Trajectory {
+    let mut trajectory = Trajectory::new();
+    for pose in poses
+        .iter()
+        .filter(|p| p.status != TrackingStatus::Predicted)
+    {
+        trajectory.push(pose.timestamp, pose.world_from_camera);
+    }
+    trajectory
 }

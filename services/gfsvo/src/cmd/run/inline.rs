@@ -7,21 +7,34 @@ use crate::config::Config;
 use gfs_core::Image;
 use gfs_core::ids::FrameId;
 use gfs_dataset::Sequence;
-use gfs_odometry::{FramePose, Frontend, Odometry, OdometryConfig};
+use gfs_odometry::loop_closing::LoopClosure;
+use gfs_odometry::{FinalTrajectory, FramePose, Frontend, Odometry, OdometryConfig};
 use indicatif::ProgressBar;
 use std::collections::BTreeMap;
 
 /// Poses, per-stage timings and keyframes of an inline run.
 pub struct InlineOutcome {
-    /// One pose per input frame.
+    /// One pose per input frame: the final best estimate (each frame's reference
+    /// keyframe as the map holds it at the end, composed with the frame's pose relative
+    /// to it), in the map frame.
     pub poses: Vec<FramePose>,
+    /// One pose per input frame as published live: the continuous odometry.
+    pub odometry: Vec<FramePose>,
+    /// The loops closed.
+    pub loops: Vec<LoopClosure>,
     /// Milliseconds per stage.
     pub timings: BTreeMap<&'static str, Summary>,
+    /// Tracking milliseconds per block of [`BLOCK_FRAMES`] frames, in order (is the
+    /// time per frame flat over a long run?).
+    pub tracking_blocks: Vec<Summary>,
     /// Keyframes in the map at the end.
     pub keyframes: usize,
     /// True when SIGINT / SIGTERM stopped the run: `poses` holds the frames done.
     pub interrupted: bool,
 }
+
+/// Frames per block of [`InlineOutcome::tracking_blocks`].
+pub const BLOCK_FRAMES: usize = 500;
 
 /// Runs the first `total` frames of `sequence`.
 ///
@@ -56,6 +69,7 @@ pub fn run(
     );
     let mut times = StageTimes::default();
     let mut poses = Vec::with_capacity(total);
+    let mut finals = FinalTrajectory::with_capacity(total);
     let mut interrupted = false;
     let (width, height) = (pinhole.width, pinhole.height);
     let blank = (
@@ -100,11 +114,15 @@ pub fn run(
             odometry.process(features)?
         };
         times.record(&frontend, &odometry);
+        finals.record(&odometry, &pose);
         poses.push(pose);
         progress.inc(1);
     }
     Ok(InlineOutcome {
-        poses,
+        poses: finals.finish(&odometry, &poses),
+        odometry: poses,
+        loops: odometry.loops().to_vec(),
+        tracking_blocks: times.tracking_blocks(),
         timings: times.summarise(),
         keyframes: odometry.map().keyframe_count(),
         interrupted,
@@ -133,6 +151,13 @@ impl StageTimes {
         if let Some(m) = o.mapping {
             self.mapping.push(ms(m));
         }
+    }
+
+    fn tracking_blocks(&self) -> Vec<Summary> {
+        self.tracking
+            .chunks(BLOCK_FRAMES)
+            .map(|block| Summary::of(&mut block.to_vec()))
+            .collect()
     }
 
     fn summarise(mut self) -> BTreeMap<&'static str, Summary> {

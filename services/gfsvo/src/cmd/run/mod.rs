@@ -64,6 +64,9 @@ pub struct RunArgs {
     /// Ablation: run without Manhattan axes.
     #[arg(long)]
     pub no_manhattan: bool,
+    /// Ablation: run without loop closing.
+    #[arg(long)]
+    pub no_loop_closing: bool,
     /// Print the summary as one JSON object (ATE, frames per status, timings).
     #[arg(long)]
     pub json: bool,
@@ -91,6 +94,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let mut config = Config::load(args.config.as_deref(), &dataset)?;
     config.tracking.use_lines &= !args.no_lines;
     config.tracking.use_manhattan &= !args.no_manhattan;
+    config.loop_closing.enabled &= !args.no_loop_closing;
     if args.mcap.is_some() && args.mode == RunMode::Inline {
         return Err(
             "--mcap records the pose covariances of the pipeline modes, not of inline".into(),
@@ -109,7 +113,9 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let timestamps = &source.timestamps[..total];
     let clock = std::time::Instant::now();
 
-    let (poses, processed, timings, keyframes, restarts, covariances) = if args.mode
+    let mut tracking_blocks = Vec::new();
+    let (poses, odometry, loops, processed, timings, keyframes, restarts, covariances) = if args
+        .mode
         == RunMode::Inline
     {
         let sequence = sequence
@@ -120,13 +126,17 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         progress.finish_and_clear();
         if outcome.interrupted {
             write_outputs(&args.out, &outcome.poses)?;
+            write_odometry(&args.out, &outcome.odometry)?;
             return Err(interrupted(outcome.poses.len(), total, &args.out));
         }
         let timings = Timings::Inline(outcome.timings);
+        tracking_blocks = outcome.tracking_blocks;
         let processed = outcome.poses.len();
         let covariances = crate::pipeline::Covariances::new();
         (
             outcome.poses,
+            outcome.odometry,
+            Some(outcome.loops),
             processed,
             timings,
             outcome.keyframes,
@@ -158,6 +168,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             config_path: source.config_path.clone(),
             no_lines: args.no_lines,
             no_manhattan: args.no_manhattan,
+            no_loop_closing: args.no_loop_closing,
             run_id,
             log: log.to_owned(),
             threads: args.mode == RunMode::Threads,
@@ -182,13 +193,18 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             return Err(interrupted(poses.len(), total, &args.out));
         }
         let poses = pipeline::complete_trajectory(&outcome.received, timestamps);
+        let in_map = pipeline::map_poses(&poses, &outcome.corrections);
         let timings = Timings::Pipeline(outcome.profile.summary());
         if !outcome.leftovers.is_empty() {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
         }
         let processed = outcome.received.len();
+        // The recorder sees the poses as published: the continuous odometry and the
+        // loop corrections known at each frame, not the later ones.
         (
+            in_map,
             poses,
+            None,
             processed,
             timings,
             outcome.keyframes,
@@ -199,13 +215,25 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
 
     let wall_s = clock.elapsed().as_secs_f64();
     write_outputs(&args.out, &poses)?;
+    write_odometry(&args.out, &odometry)?;
     if let Some(path) = &args.mcap {
-        super::ros2_io::record_mcap(path, &config, &poses, &covariances)?;
+        super::ros2_io::record_mcap(path, &config, &odometry, &covariances)?;
     }
     let estimated = checks::tracked_trajectory(&poses, &args.out)?;
     let evaluation = match &ground_truth {
         Some(gt) => Some(evaluate(gt, &estimated, EVO_MAX_DIFF_S)?),
         None => None,
+    };
+    let corrected = poses
+        .iter()
+        .zip(&odometry)
+        .any(|(a, b)| a.world_from_camera != b.world_from_camera);
+    let odometry_evaluation = match &ground_truth {
+        Some(gt) if corrected => {
+            let continuous = checks::tracked_poses(&odometry);
+            Some(evaluate(gt, &continuous, EVO_MAX_DIFF_S)?)
+        }
+        _ => None,
     };
     let mut counts = BTreeMap::<&str, usize>::new();
     for pose in &poses {
@@ -234,6 +262,17 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             object["ate_max_m"] = e.ate.stats.max.into();
             object["matched"] = e.matched().into();
         }
+        if let Some(found) = &loops {
+            object["loops"] = serde_json::to_value(found)?;
+        }
+        if !tracking_blocks.is_empty() {
+            let medians: Vec<f64> = tracking_blocks.iter().map(|s| s.median).collect();
+            object["tracking_median_ms_per_block"] = medians.into();
+            object["block_frames"] = inline::BLOCK_FRAMES.into();
+        }
+        if let Some(e) = &odometry_evaluation {
+            object["odometry_ate_rmse_m"] = e.ate.stats.rmse.into();
+        }
         println!("{object}");
     } else {
         print_report(&dataset, &args.out, poses.len(), &counts, &timings);
@@ -244,8 +283,31 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         if let Some(r) = restarts.filter(|r| r.values().any(|n| *n > 0)) {
             println!("restarts    {r:?}");
         }
+        if let Some(found) = &loops {
+            println!("loops       {} closed", found.len());
+            for l in found {
+                println!(
+                    "            keyframe {} -> {}: {} inliers, moved {:.3} m, found by {}",
+                    l.current,
+                    l.candidate,
+                    l.inliers,
+                    l.shift_m,
+                    if l.by_appearance {
+                        "appearance"
+                    } else {
+                        "position"
+                    }
+                );
+            }
+        }
         if let Some(e) = &evaluation {
             print_ate(e);
+        }
+        if let Some(e) = &odometry_evaluation {
+            println!(
+                "ATE RMSE {:.4} m of the continuous odometry (odometry.txt)",
+                e.ate.stats.rmse
+            );
         }
     }
     Ok(())
@@ -303,6 +365,17 @@ pub fn write_outputs(out: &Path, poses: &[FramePose]) -> CliResult<Trajectory> {
     status.flush().map_err(named)?;
     trajectory.write_tum(&out.join("trajectory.txt"))?;
     Ok(trajectory)
+}
+
+/// Writes `odometry.txt` (TUM): the poses as published, continuous (REP 105 `odom`);
+/// `trajectory.txt` holds the final best estimate, in the map frame.
+pub fn write_odometry(out: &Path, poses: &[FramePose]) -> CliResult {
+    let mut trajectory = Trajectory::new();
+    for pose in poses {
+        trajectory.push(pose.timestamp, pose.world_from_camera);
+    }
+    trajectory.write_tum(&out.join("odometry.txt"))?;
+    Ok(())
 }
 
 /// The built-in synthetic sequence, rendered into the cache on first use with a

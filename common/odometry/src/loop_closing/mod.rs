@@ -1,0 +1,146 @@
+//! Loop closing: coming back to a place mapped before. After each keyframe, candidates
+//! are looked for by appearance ([`place`], bag of words) and by position in the drifted
+//! estimate ([`detect`]), kept when consistent over consecutive keyframes
+//! ([`consistency`]), verified geometrically ([`verify`]), and a verified loop
+//! corrects the map ([`correct`]): a pose graph over the keyframes, the landmarks moved
+//! with their keyframes, and the current keyframe's matches to the old side fused, so
+//! that tracking and local mapping go on against the old landmarks.
+//!
+//! The [`LoopCloser`] runs in the mapping half, after local mapping, on the map the
+//! mapping half owns; the tracker sees the correction in the next map it receives
+//! ([`crate::map::Map::corrections`]).
+
+mod consistency;
+mod correct;
+mod detect;
+mod place;
+#[cfg(test)]
+mod tests;
+mod verify;
+
+pub use consistency::ConsistentGroups;
+pub use correct::correct_loop;
+pub use detect::proximity_candidates;
+pub use place::PlaceIndex;
+pub use verify::{LoopMatch, Verifier};
+
+use crate::config::{LoopClosingConfig, OdometryConfig};
+use crate::map::Map;
+use crate::matching::ScalePyramid;
+use crate::pose_solver::PoseSolver;
+use gfs_core::camera::PinholeCamera;
+use gfs_core::ids::KeyFrameId;
+use serde::{Deserialize, Serialize};
+
+/// A loop that was closed.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LoopClosure {
+    /// The keyframe that came back.
+    pub current: KeyFrameId,
+    /// The old keyframe it closed on.
+    pub candidate: KeyFrameId,
+    /// Point inliers of the verification.
+    pub inliers: usize,
+    /// How far the correction moved the current keyframe, metres.
+    pub shift_m: f64,
+    /// True when the bag of words proposed the candidate, false when only its position
+    /// in the drifted estimate did.
+    pub by_appearance: bool,
+}
+
+/// Detects, verifies and closes loops in the map, one keyframe after the other.
+pub struct LoopCloser {
+    config: LoopClosingConfig,
+    verifier: Verifier,
+    places: PlaceIndex,
+    groups: ConsistentGroups,
+    last_loop: Option<KeyFrameId>,
+}
+
+impl LoopCloser {
+    /// A loop closer for `camera` whose keypoints come from the pyramid `scale`.
+    pub fn new(config: &OdometryConfig, camera: PinholeCamera, scale: ScalePyramid) -> Self {
+        let solver = PoseSolver::new(config.tracking.pose.clone(), camera, scale);
+        Self {
+            config: config.loop_closing.clone(),
+            verifier: Verifier::new(camera, solver),
+            places: PlaceIndex::default(),
+            groups: ConsistentGroups::default(),
+            last_loop: None,
+        }
+    }
+
+    /// Looks for a loop at keyframe `kf` (just mapped) and closes the first verified
+    /// one. Returns it, or `None` (disabled, too soon after the last loop, no candidate,
+    /// none verified, or the pose graph failed; the map is then unchanged).
+    pub fn after_keyframe(&mut self, map: &mut Map, kf: KeyFrameId) -> Option<LoopClosure> {
+        if !self.config.enabled {
+            return None;
+        }
+        self.places.sync(map);
+        if let Some(last) = self.last_loop
+            && kf.0 < last.0 + self.config.keyframes_between_loops
+        {
+            self.groups.clear();
+            return None;
+        }
+        let by_appearance = self.places.candidates(map, kf, &self.config);
+        let mut candidates = by_appearance.clone();
+        for near in proximity_candidates(map, kf, &self.config) {
+            if !candidates.contains(&near) {
+                candidates.push(near);
+            }
+        }
+        let consistent = self
+            .groups
+            .update(map, &candidates, self.config.consistent_keyframes);
+        let found = consistent.into_iter().find_map(|candidate| {
+            self.verifier
+                .verify(map, kf, candidate, self.config.min_inliers, kf.0)
+        })?;
+        let before = map.keyframe(kf)?.world_from_camera();
+        if let Err(e) = correct_loop(map, kf, &found) {
+            tracing::warn!(keyframe = %kf, candidate = %found.candidate, "loop not corrected: {e}");
+            return None;
+        }
+        fuse_matches(map, kf, &found);
+        let after = map.keyframe(kf)?.world_from_camera();
+        self.last_loop = Some(kf);
+        self.groups.clear();
+        let closure = LoopClosure {
+            current: kf,
+            candidate: found.candidate,
+            inliers: found.inliers,
+            shift_m: (after.translation.vector - before.translation.vector).norm(),
+            by_appearance: by_appearance.contains(&found.candidate),
+        };
+        tracing::info!(
+            keyframe = %kf,
+            candidate = %found.candidate,
+            inliers = found.inliers,
+            shift_m = closure.shift_m,
+            by_appearance = closure.by_appearance,
+            "loop closed"
+        );
+        Some(closure)
+    }
+}
+
+/// Links the current keyframe's keypoints to the old side's points they matched: a
+/// free keypoint gets the observation, one with a point of its own has that point merged
+/// into the old one (the old side is the drift-free one).
+fn fuse_matches(map: &mut Map, kf: KeyFrameId, found: &LoopMatch) {
+    for (i, old) in found.point_ids.iter().enumerate() {
+        let Some(old) = *old else { continue };
+        let own = map
+            .keyframe(kf)
+            .and_then(|k| k.point_ids.get(i).copied().flatten());
+        match own {
+            None => {
+                map.link(old, kf, i);
+            }
+            Some(own) if own != old => map.merge(own, old),
+            Some(_) => {}
+        }
+    }
+}

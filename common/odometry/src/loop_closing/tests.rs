@@ -1,0 +1,115 @@
+//! A keyframe that comes back to the first keyframe's place with a drifted pose: found,
+//! verified, pulled onto the old side, and tied to the old landmarks.
+
+use super::*;
+use crate::config::OdometryConfig;
+use crate::map::KeyFrame;
+use crate::testing::{Scene, camera, first_keyframe, pose, scale};
+use nalgebra::{Isometry3, Translation3};
+
+/// Keyframes after the first, away from it (3 m to the side), before the return.
+const AWAY: usize = 21;
+
+/// A keyframe of `features` at `camera_from_world`, linked to nothing.
+fn unlinked(features: crate::FrameFeatures, camera_from_world: Isometry3<f64>) -> KeyFrame {
+    KeyFrame {
+        id: KeyFrameId(0),
+        camera_from_world,
+        point_ids: vec![None; features.keypoints.len()],
+        line_ids: vec![None; features.lines.len()],
+        plane_ids: vec![None; features.planes.len()],
+        features,
+        loop_correction: Isometry3::identity(),
+    }
+}
+
+/// The first keyframe, `AWAY` keyframes away from it, and the return: seen from
+/// `truth` but estimated 8 cm off. Returns the map and the returning keyframe.
+fn came_back(scene: &Scene, truth: Isometry3<f64>) -> (Map, KeyFrameId) {
+    let (mut map, _, _) = first_keyframe(scene, &OdometryConfig::default());
+    for k in 0..AWAY {
+        let away = pose(3.0 + 0.1 * k as f64, 0.0);
+        map.insert_keyframe(unlinked(crate::FrameFeatures::default(), away));
+    }
+    let drift = Isometry3::from_parts(Translation3::new(0.08, 0.0, 0.0), Default::default());
+    let current = map.insert_keyframe(unlinked(scene.features(99, &truth), truth * drift));
+    (map, current)
+}
+
+#[test]
+fn a_drifted_return_is_found_verified_and_pulled_onto_the_old_place() {
+    let scene = Scene::new(200, 0);
+    let truth = pose(0.05, 2f64.to_radians());
+    let (mut map, current) = came_back(&scene, truth);
+    let mut config = OdometryConfig::default();
+    // One keyframe comes back here: no later keyframes to be consistent with.
+    config.loop_closing.consistent_keyframes = 1;
+    assert_eq!(
+        proximity_candidates(&map, current, &config.loop_closing),
+        vec![KeyFrameId(0)]
+    );
+    let mut closer = LoopCloser::new(&config, camera(), scale());
+    let closure = closer
+        .after_keyframe(&mut map, current)
+        .expect("loop closed");
+    assert_eq!(
+        (closure.current, closure.candidate),
+        (current, KeyFrameId(0))
+    );
+    assert!(closure.inliers >= 150, "{closure:?}");
+    // The returning keyframe is where it really is, up to its share of the loop's
+    // error (the ring of 23 edges spreads 8 cm: 3.5 mm each); the old side holds.
+    assert!((closure.shift_m - 0.08).abs() < 5e-3, "{closure:?}");
+    let kf = map.keyframe(current).expect("current");
+    let error = kf.camera_from_world * truth.inverse();
+    assert!(error.translation.vector.norm() < 5e-3, "{error}");
+    let first = map.keyframe(KeyFrameId(0)).expect("first");
+    assert_eq!(first.camera_from_world, Isometry3::identity());
+    // Its keypoints now observe the old landmarks, and the map says it was corrected.
+    assert!(kf.tracked_points() >= 150, "{}", kf.tracked_points());
+    assert_eq!(map.corrections(), 1);
+    assert_ne!(kf.loop_correction, Isometry3::identity());
+    // Too soon for another loop.
+    assert_eq!(closer.after_keyframe(&mut map, current), None);
+}
+
+#[test]
+fn nothing_is_closed_when_disabled_or_when_the_place_is_not_the_same() {
+    let scene = Scene::new(200, 0);
+    let truth = pose(0.05, 0.0);
+    let mut config = OdometryConfig::default();
+    config.loop_closing.enabled = false;
+    let (mut map, current) = came_back(&scene, truth);
+    let mut closer = LoopCloser::new(&config, camera(), scale());
+    assert_eq!(closer.after_keyframe(&mut map, current), None);
+    assert_eq!(map.corrections(), 0);
+    // Another scene seen from the same pose: a candidate by position, but no match.
+    let other = Scene::new(200, 0);
+    let mut shuffled = other.features(99, &truth);
+    shuffled.point_descriptors.reverse();
+    let mut map2 = came_back(&scene, truth).0;
+    let wrong = map2.insert_keyframe(unlinked(shuffled, truth));
+    config.loop_closing.enabled = true;
+    config.loop_closing.consistent_keyframes = 1;
+    let mut closer = LoopCloser::new(&config, camera(), scale());
+    assert_eq!(closer.after_keyframe(&mut map2, wrong), None);
+    assert_eq!(map2.corrections(), 0);
+}
+
+#[test]
+fn a_retired_keyframe_follows_the_corrections_of_its_parent() {
+    let scene = Scene::new(50, 0);
+    let (mut map, _, first) = first_keyframe(&scene, &OdometryConfig::default());
+    let mut second = map.keyframe(first).expect("first").clone();
+    second.camera_from_world = pose(0.1, 0.0);
+    let second = map.insert_keyframe(second);
+    let a = Isometry3::translation(0.01, 0.0, 0.0);
+    let b = Isometry3::translation(0.0, 0.02, 0.0);
+    map.keyframe_mut(second).expect("second").loop_correction = a;
+    map.remove_keyframe(second);
+    assert_eq!(map.keyframe_correction(second), Some(a));
+    map.keyframe_mut(first).expect("first").loop_correction = b;
+    let followed = map.keyframe_correction(second).expect("retired");
+    assert!((followed.translation.vector - (b * a).translation.vector).norm() < 1e-12);
+    assert_eq!(map.keyframe_correction(KeyFrameId(7)), None);
+}
