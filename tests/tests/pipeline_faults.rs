@@ -20,6 +20,36 @@ use gfs_synth::SplitMix64;
 use std::path::Path;
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
+/// The trajectory files agree to the last of their nine printed decimals. A restart
+/// may leave an iterative estimate a few ulps from the undisturbed run's (a restarted
+/// planes stage starts its Manhattan estimate from the prediction it finds in the pose
+/// topic's history), and a few ulps can flip the ninth decimal: under load, about one
+/// run in four of the planes stage's kills differed so, by 2.4e-9 at most.
+const SAME_TRAJECTORY: f64 = 1e-8;
+
+/// The largest difference between two TUM trajectory files' numbers, line by line;
+/// infinite when their lines do not pair up.
+fn largest_difference(a: &str, b: &str) -> f64 {
+    let rows = |t: &str| -> Vec<Vec<f64>> {
+        t.lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(|l| {
+                l.split_whitespace()
+                    .filter_map(|v| v.parse().ok())
+                    .collect()
+            })
+            .collect()
+    };
+    let (a, b) = (rows(a), rows(b));
+    if a.len() != b.len() || a.iter().zip(&b).any(|(x, y)| x.len() != y.len()) {
+        return f64::INFINITY;
+    }
+    a.iter()
+        .zip(&b)
+        .flat_map(|(x, y)| x.iter().zip(y).map(|(u, v)| (u - v).abs()))
+        .fold(0.0, f64::max)
+}
+
 /// Three frames in thirds of the sequence, from a seed.
 fn random_frames(seed: u64) -> [u64; 3] {
     let mut rng = SplitMix64::new(seed);
@@ -65,12 +95,19 @@ fn killed_three_times(stage: &str, seed: u64) {
         o.ate
     );
     // Every stage resumes from its checkpoint and the topics' history, so in lockstep
-    // a restart changes nothing unless a frame went past its deadline (degraded).
-    if o.degraded == 0 {
+    // a restart changes nothing unless a frame went past its feature deadline (then
+    // tracked without a part, or not at all, on a machine too loaded to keep up).
+    let late = o.stderr.contains("missing at the deadline");
+    if o.degraded == 0 && !late {
+        let difference = largest_difference(&o.trajectory, reference);
+        println!("{stage}: largest difference to the undisturbed trajectory {difference:e}");
         assert!(
-            o.trajectory == *reference,
-            "{stage} restarts changed the trajectory"
+            difference <= SAME_TRAJECTORY,
+            "{stage} restarts changed the trajectory by {difference}: {}",
+            o.stderr
         );
+    } else {
+        println!("{stage}: a frame went past its deadline; the trajectory not compared");
     }
 }
 

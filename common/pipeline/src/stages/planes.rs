@@ -102,6 +102,15 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                     poses.wait(POLL)?;
                     predicted.take(&poses)?;
                 }
+                if predicted.frame.is_none_or(|f| f + 1 < id) {
+                    // Said aloud: the axes then start from an older prediction, so the
+                    // run is no longer reproducible bit for bit.
+                    tracing::warn!(
+                        frame = id,
+                        "planes: the previous frame's pose missing at the deadline; \
+                         predicting from an older one"
+                    );
+                }
             }
             let deadline = Instant::now() + ctx.feature_deadline();
             while !lines3d.contains_key(&id) && Instant::now() < deadline && !ctx.stopping() {
