@@ -121,6 +121,18 @@ impl Tracker {
         }
     }
 
+    /// The directions the last optimisation's information leaves with a standard
+    /// deviation above `[tracking.depth] weak_sigma_m`.
+    pub(super) fn weak_directions(&self) -> Vec<nalgebra::Vector6<f64>> {
+        let depth = &self.config.depth;
+        analyse_constraint(
+            self.solver.information(),
+            depth.lever_arm_m,
+            depth.weak_sigma_m,
+        )
+        .unconstrained
+    }
+
     /// `Degraded` when the last optimisation's information leaves a pose direction
     /// with a standard deviation above `[tracking.depth] max_sigma_m`, else `Tracked`.
     pub(super) fn status_from_information(&self) -> TrackingStatus {

@@ -88,6 +88,9 @@ pub struct Tracker {
     plane_pairs: Vec<(usize, MapPlaneId)>,
     /// The reference keyframe's depth (`[tracking.depth] keyframe_reference`).
     keyframe_depth: Option<(KeyFrameId, crate::depth_grid::DepthGrid)>,
+    /// The directions a frame tracked on geometry alone left free (above `[tracking.
+    /// depth] weak_sigma_m`): the motion model does not learn its motion along them.
+    unmeasured: Vec<nalgebra::Vector6<f64>>,
 }
 
 impl Tracker {
@@ -118,6 +121,7 @@ impl Tracker {
             plane_associator: PlaneAssociator::default(),
             plane_pairs: Vec::new(),
             keyframe_depth: None,
+            unmeasured: Vec::new(),
             config,
             camera,
         }
@@ -158,6 +162,10 @@ impl Tracker {
         if frame.status == TrackingStatus::Relocalised {
             self.motion.reset_velocity();
         }
+        if frame.status.is_tracked() {
+            self.motion
+                .forget_motion_along(&self.unmeasured, self.config.depth.lever_arm_m);
+        }
         self.last = Some(frame);
     }
 
@@ -195,6 +203,7 @@ impl Tracker {
         {
             rolling_shutter::compensate(&mut features, &self.camera, &rate, self.config.readout_s);
         }
+        self.unmeasured.clear();
         let mut frame = TrackedFrame::untracked(features, predicted);
         self.points.index(&frame.features);
         self.lines.index(&frame.features);
@@ -240,8 +249,12 @@ impl Tracker {
         }
         frame.restart(&predicted);
         frame.inliers = Inliers::default();
+        if use_depth || use_planes {
+            self.keep_few_matches(map, &mut frame, &predicted);
+        }
         if (use_depth || use_planes) && self.track_on_geometry(map, &mut frame) {
             frame.status = self.status_from_information();
+            self.unmeasured = self.weak_directions();
             return frame;
         }
         frame.restart(&predicted);

@@ -150,6 +150,21 @@ impl Tracker {
         self.optimise(map, frame) >= self.config.min_step_inliers()
     }
 
+    /// The last frame's landmarks matched from `predicted` as
+    /// [`super::Strategy::MotionModel`] does, kept even when too few to track on: with
+    /// the depth and planes they constrain the directions the geometry leaves free (a
+    /// wall and the floor leave the translation along their edge). The frame keeps the
+    /// predicted pose: a few matches alone may pull it anywhere.
+    pub(super) fn keep_few_matches(
+        &mut self,
+        map: &Map,
+        frame: &mut TrackedFrame,
+        predicted: &Isometry3<f64>,
+    ) {
+        self.track_last_frame(map, frame);
+        frame.camera_from_world = *predicted;
+    }
+
     /// Matches `local_lines` into the frame from `pose`; when too few of the frame's
     /// lines are matched, the extension search looks again along the projected lines.
     /// Returns the number of new matches.
