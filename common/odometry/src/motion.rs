@@ -93,13 +93,11 @@ impl MotionModel {
         let (Some(velocity), false) = (&self.velocity, directions.is_empty()) else {
             return;
         };
-        let l = lever_arm_m.max(f64::MIN_POSITIVE);
-        let scale = Vector6::new(1.0, 1.0, 1.0, l, l, l);
-        let mut scaled = se3::log(velocity).component_mul(&scale);
-        for u in directions {
-            scaled -= u * u.dot(&scaled);
-        }
-        let mut kept = se3::exp(&scaled.component_div(&scale));
+        let mut kept = se3::exp(&without_motion_along(
+            &se3::log(velocity),
+            directions,
+            lever_arm_m,
+        ));
         kept.rotation.renormalize();
         self.velocity = Some(kept);
     }
@@ -114,6 +112,23 @@ impl MotionModel {
         self.velocity = None;
         self.velocity_interval_s = None;
     }
+}
+
+/// `xi` (a tangent vector `[rho; phi]`) without its components along `directions`
+/// (unit vectors `[rho; phi L]`, orthogonal to each other, rotations scaled by the lever
+/// arm `lever_arm_m`, as [`gfs_optim::analyse_constraint`] gives them).
+pub fn without_motion_along(
+    xi: &Vector6<f64>,
+    directions: &[Vector6<f64>],
+    lever_arm_m: f64,
+) -> Vector6<f64> {
+    let l = lever_arm_m.max(f64::MIN_POSITIVE);
+    let scale = Vector6::new(1.0, 1.0, 1.0, l, l, l);
+    let mut scaled = xi.component_mul(&scale);
+    for u in directions {
+        scaled -= u * u.dot(&scaled);
+    }
+    scaled.component_div(&scale)
 }
 
 #[cfg(test)]

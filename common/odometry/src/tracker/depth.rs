@@ -121,14 +121,24 @@ impl Tracker {
         }
     }
 
-    /// The directions the last optimisation's information leaves with a standard
-    /// deviation above `[tracking.depth] weak_sigma_m`.
-    pub(super) fn weak_directions(&self) -> Vec<nalgebra::Vector6<f64>> {
+    /// The directions the last optimisation's information, less what the depth pairs'
+    /// normal noise lends it, leaves with a standard deviation above `[tracking.depth]
+    /// max_sigma_m`, for a frame at `camera_from_world`.
+    pub(super) fn weak_directions(
+        &self,
+        camera_from_world: &Isometry3<f64>,
+    ) -> Vec<nalgebra::Vector6<f64>> {
         let depth = &self.config.depth;
+        let noise = if self.depth_pairs > 0 {
+            self.depth_associator
+                .normal_noise_information(camera_from_world)
+        } else {
+            nalgebra::Matrix6::zeros()
+        };
         analyse_constraint(
-            self.solver.information(),
+            &(self.solver.information() - noise),
             depth.lever_arm_m,
-            depth.weak_sigma_m,
+            depth.max_sigma_m,
         )
         .unconstrained
     }

@@ -22,7 +22,7 @@ use crate::map::Map;
 use crate::matching::{
     LineProjectionMatcher, PointProjectionMatcher, ProjectionCandidate, ScalePyramid,
 };
-use crate::motion::MotionModel;
+use crate::motion::{MotionModel, without_motion_along};
 use crate::plane_association::PlaneAssociator;
 use crate::pose_solver::{Inliers, PoseSolver};
 use crate::ransac::{Correspondence, RigidRansac};
@@ -254,7 +254,13 @@ impl Tracker {
         }
         if (use_depth || use_planes) && self.track_on_geometry(map, &mut frame) {
             frame.status = self.status_from_information();
-            self.unmeasured = self.weak_directions();
+            self.unmeasured = self.weak_directions(&frame.camera_from_world);
+            frame.camera_from_world = hold_to_prediction(
+                &frame.camera_from_world,
+                &predicted,
+                &self.unmeasured,
+                self.config.depth.lever_arm_m,
+            );
             return frame;
         }
         frame.restart(&predicted);
@@ -288,6 +294,26 @@ impl Tracker {
         );
         frame.inliers.total()
     }
+}
+
+/// `pose` moved back onto `predicted` along `directions` (see [`without_motion_along`]):
+/// along a direction the data leave free, the optimiser's step follows the noise of the
+/// depth nodes' normals, which lend a wall and the floor a few millimetres of
+/// information along their edge; the prediction is the better guess there.
+fn hold_to_prediction(
+    pose: &Isometry3<f64>,
+    predicted: &Isometry3<f64>,
+    directions: &[nalgebra::Vector6<f64>],
+    lever_arm_m: f64,
+) -> Isometry3<f64> {
+    if directions.is_empty() {
+        return *pose;
+    }
+    let step = gfs_core::se3::log(&(pose * predicted.inverse()));
+    let mut held =
+        gfs_core::se3::exp(&without_motion_along(&step, directions, lever_arm_m)) * predicted;
+    held.rotation.renormalize();
+    held
 }
 
 #[cfg(test)]
