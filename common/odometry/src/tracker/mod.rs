@@ -253,8 +253,13 @@ impl Tracker {
             self.keep_few_matches(map, &mut frame, &predicted);
         }
         if (use_depth || use_planes) && self.track_on_geometry(map, &mut frame) {
-            frame.status = self.status_from_information();
             self.unmeasured = self.weak_directions(&frame.camera_from_world);
+            // A pose held at the prediction along a direction was not measured there.
+            frame.status = if self.unmeasured.is_empty() {
+                self.status_from_information()
+            } else {
+                TrackingStatus::Degraded
+            };
             frame.camera_from_world = hold_to_prediction(
                 &frame.camera_from_world,
                 &predicted,
