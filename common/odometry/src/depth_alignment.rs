@@ -96,6 +96,9 @@ pub fn self_information(config: &DepthAlignmentConfig, grid: &DepthGrid) -> Matr
 #[derive(Debug, Default)]
 pub struct DepthAssociator {
     observations: Vec<DepthObservation>,
+    /// Variance of one node normal's tilt along a tangent direction, rad^2, from the
+    /// angles between the last pass's paired normals.
+    normal_variance: f64,
 }
 
 impl DepthAssociator {
@@ -113,6 +116,7 @@ impl DepthAssociator {
         max_distance_m: f64,
     ) -> &[DepthObservation] {
         self.observations.clear();
+        let mut angle2_sum = 0.0;
         let world_from_reference = reference_from_world.inverse();
         let reference_from_current = reference_from_world * current_from_world.inverse();
         let min_cos = config.max_normal_angle_deg.to_radians().cos();
@@ -134,12 +138,14 @@ impl DepthAssociator {
                 // node's footprint (the node is its block's mean point, not the pixel's).
                 let offset = in_reference.coords - s;
                 let footprint = f64::from(reference.stride_px) * s.z / camera.fx;
+                let cos = (reference_from_current.rotation * q_normal).dot(&n);
                 if n.dot(&offset).abs() > max_distance_m
                     || offset.norm() > max_distance_m + footprint
-                    || (reference_from_current.rotation * q_normal).dot(&n) < min_cos
+                    || cos < min_cos
                 {
                     continue;
                 }
+                angle2_sum += cos.clamp(-1.0, 1.0).acos().powi(2);
                 // The sensor noise of both ends, and the pass's association uncertainty:
                 // a coarse pass pairs points up to its gate apart, and a tight chi-square
                 // test would reject the only pairs of a weakly seen direction.
@@ -154,7 +160,27 @@ impl DepthAssociator {
                 });
             }
         }
+        // Two independent normals, each tilted with two tangent components: the
+        // squared angle between them averages four times one component's variance.
+        self.normal_variance = angle2_sum / (4.0 * self.observations.len().max(1) as f64);
         &self.observations
+    }
+
+    /// The information the last pass's pairs seem to give the pose (at
+    /// `camera_from_world`) only because their normals are noisy: a node's normal tilted
+    /// by `d` along a direction `e` of its surface lends it `w (d . e)^2` of
+    /// information, where the surface gives none (a wall and the floor along their
+    /// edge). Translation block only, `sum w sigma_n^2 (I - n n^T)`.
+    pub fn normal_noise_information(&self, camera_from_world: &Isometry3<f64>) -> Matrix6<f64> {
+        let mut h = Matrix6::zeros();
+        for o in &self.observations {
+            let n = camera_from_world.rotation * o.normal_in_world;
+            let tangent = nalgebra::Matrix3::identity() - n * n.transpose();
+            let block = tangent * (o.inv_sigma2 * self.normal_variance);
+            let mut translation = h.fixed_view_mut::<3, 3>(0, 0);
+            translation += block;
+        }
+        h
     }
 }
 
@@ -212,6 +238,33 @@ mod tests {
                 "{d}"
             );
         }
+    }
+
+    #[test]
+    fn tilted_normals_lend_a_wall_information_along_itself() {
+        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let config = DepthAlignmentConfig::default();
+        let reference = wall(&camera, 2.0);
+        let mut current = reference.clone();
+        let pose = Isometry3::identity();
+        let mut associator = DepthAssociator::default();
+        associator.associate(&config, &camera, &current, &pose, &reference, &pose, 0.015);
+        // Exact normals: nothing lent.
+        assert_eq!(associator.normal_noise_information(&pose), Matrix6::zeros());
+        // Every frame normal tilted by 0.02 rad: a variance of 0.02^2 / 4 per
+        // component, along the wall's x and y only.
+        let tilt = [0.02f32.sin(), 0.0, -0.02f32.cos()];
+        current.normals.iter_mut().for_each(|n| *n = tilt);
+        let pairs = associator
+            .associate(&config, &camera, &current, &pose, &reference, &pose, 0.015)
+            .to_vec();
+        let h = associator.normal_noise_information(&pose);
+        let w: f64 = pairs.iter().map(|o| o.inv_sigma2).sum();
+        let expected = w * 0.02f64.powi(2) / 4.0;
+        assert!(!pairs.is_empty());
+        assert!((h[(0, 0)] / expected - 1.0).abs() < 1e-3, "{h}");
+        assert!((h[(1, 1)] / expected - 1.0).abs() < 1e-3, "{h}");
+        assert!(h[(2, 2)].abs() < 1e-9 * expected && h[(3, 3)] == 0.0, "{h}");
     }
 
     #[test]

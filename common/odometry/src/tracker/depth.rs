@@ -121,6 +121,28 @@ impl Tracker {
         }
     }
 
+    /// The directions the last optimisation's information, less what the depth pairs'
+    /// normal noise lends it, leaves with a standard deviation above `[tracking.depth]
+    /// max_sigma_m`, for a frame at `camera_from_world`.
+    pub(super) fn weak_directions(
+        &self,
+        camera_from_world: &Isometry3<f64>,
+    ) -> Vec<nalgebra::Vector6<f64>> {
+        let depth = &self.config.depth;
+        let noise = if self.depth_pairs > 0 {
+            self.depth_associator
+                .normal_noise_information(camera_from_world)
+        } else {
+            nalgebra::Matrix6::zeros()
+        };
+        analyse_constraint(
+            &(self.solver.information() - noise),
+            depth.lever_arm_m,
+            depth.max_sigma_m,
+        )
+        .unconstrained
+    }
+
     /// `Degraded` when the last optimisation's information leaves a pose direction
     /// with a standard deviation above `[tracking.depth] max_sigma_m`, else `Tracked`.
     pub(super) fn status_from_information(&self) -> TrackingStatus {

@@ -15,6 +15,10 @@ const RETRY_WIDER_BELOW: usize = 20;
 /// `TH_LOW` = 50 with a 0.7 ratio for bag-of-words matching).
 const REFERENCE_MAX_DISTANCE: u32 = 64;
 const REFERENCE_RATIO: f32 = 0.75;
+/// Fewest inlier matches kept for a frame tracked on its geometry: along the direction
+/// the geometry leaves free, one wrong match pulls the pose as far as it likes (low-
+/// texture rotation seed 1, frame 6: one line moved it 26 cm).
+const MIN_KEPT_MATCHES: usize = 6;
 /// Search radius of the wide strategy, pixels at level 0: about 5 degrees of rotation
 /// between two frames.
 const WIDE_RADIUS_PX: f64 = 50.0;
@@ -148,6 +152,25 @@ impl Tracker {
             frame.camera_from_world = last.camera_from_world;
         }
         self.optimise(map, frame) >= self.config.min_step_inliers()
+    }
+
+    /// The last frame's landmarks matched from `predicted` as
+    /// [`super::Strategy::MotionModel`] does, kept even when too few to track on: with
+    /// the depth and planes they constrain the directions the geometry leaves free (a
+    /// wall and the floor leave the translation along their edge). The frame keeps the
+    /// predicted pose: a few matches alone may pull it anywhere.
+    pub(super) fn keep_few_matches(
+        &mut self,
+        map: &Map,
+        frame: &mut TrackedFrame,
+        predicted: &Isometry3<f64>,
+    ) {
+        self.track_last_frame(map, frame);
+        frame.camera_from_world = *predicted;
+        if frame.inliers.total() < MIN_KEPT_MATCHES {
+            frame.restart(predicted);
+            frame.inliers = Default::default();
+        }
     }
 
     /// Matches `local_lines` into the frame from `pose`; when too few of the frame's
