@@ -3,7 +3,7 @@
 
 use super::messages::{KeyFrameRequest, MapUpdate, MapUpdateRef};
 use crate::config::OdometryConfig;
-use crate::loop_closing::{LoopCloser, LoopClosure};
+use crate::loop_closing::{LoopCloser, LoopClosure, LoopCorrection, apply_correction};
 use crate::manhattan::WorldManhattan;
 use crate::map::Map;
 use crate::mapper::Mapper;
@@ -85,9 +85,8 @@ impl MappingSession {
                 &mut self.manhattan,
                 stop,
             );
-            if let Some(closure) = self.loops.after_keyframe(&mut self.map, kf) {
-                self.mapper.fuse_around(&mut self.map, kf);
-                self.closures.push(closure);
+            if let Some(correction) = self.loops.after_keyframe(&self.map, kf) {
+                self.correct(&correction);
             }
             // A canonical layout, as a mapper restarted from this map will have: local
             // mapping then goes on the same whether or not the mapper was restarted.
@@ -96,6 +95,25 @@ impl MappingSession {
             self.last_keyframe = Some(kf);
         }
         self.update()
+    }
+
+    /// Applies a loop correction (the loop stage's, between keyframes) to the map.
+    /// Returns true when it was applied; a stale one is dropped.
+    pub fn apply(&mut self, correction: &LoopCorrection) -> bool {
+        let applied = self.correct(correction);
+        self.map.canonicalise();
+        applied
+    }
+
+    /// Applies `correction`, then fuses around its current keyframe (its neighbours
+    /// now see the old side's landmarks too).
+    fn correct(&mut self, correction: &LoopCorrection) -> bool {
+        let Some(closure) = apply_correction(&mut self.map, correction) else {
+            return false;
+        };
+        self.mapper.fuse_around(&mut self.map, closure.current);
+        self.closures.push(closure);
+        true
     }
 
     /// The map as it stands, answering the last request applied.
