@@ -43,6 +43,10 @@ pub fn apply_correction(map: &mut Map, correction: &LoopCorrection) -> Option<Lo
         );
         return None;
     }
+    if !correction.poses.iter().all(|(_, pose)| finite(pose)) {
+        tracing::warn!(keyframe = %correction.current, "loop correction dropped: a pose is not finite");
+        return None;
+    }
     let before = map.keyframe(correction.current)?.world_from_camera();
     let mut moved: HashMap<KeyFrameId, Isometry3<f64>> =
         HashMap::with_capacity(correction.poses.len());
@@ -75,6 +79,15 @@ pub fn apply_correction(map: &mut Map, correction: &LoopCorrection) -> Option<Lo
         "loop closed"
     );
     Some(closure)
+}
+
+fn finite(pose: &Isometry3<f64>) -> bool {
+    let rotation = pose.rotation.coords.iter();
+    pose.translation
+        .vector
+        .iter()
+        .chain(rotation)
+        .all(|v| v.is_finite())
 }
 
 /// Keyframes the correction does not know (made after its map) move as their newest

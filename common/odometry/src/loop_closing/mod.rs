@@ -74,6 +74,16 @@ impl LoopCloser {
         }
     }
 
+    /// The keyframe of the last loop found (a restarted loop stage's checkpoint).
+    pub fn last_loop(&self) -> Option<KeyFrameId> {
+        self.last_loop
+    }
+
+    /// Resumes after a loop found at `kf` (no other loop for the next keyframes).
+    pub fn resume(&mut self, last_loop: Option<KeyFrameId>) {
+        self.last_loop = last_loop;
+    }
+
     /// Looks for a loop at keyframe `kf` (just mapped) and returns the correction of
     /// the first verified one, or `None` (disabled, too soon after the last loop, no
     /// candidate, none verified, or the pose graph failed). The map is not changed:

@@ -15,6 +15,8 @@ use gfs_core::ids::KeyFrameId;
 pub struct MappingSession {
     mapper: Mapper,
     loops: LoopCloser,
+    /// False when a loop stage detects the loops and sends its corrections ([`Self::apply`]).
+    detects_loops: bool,
     closures: Vec<LoopClosure>,
     map: Map,
     manhattan: WorldManhattan,
@@ -35,12 +37,19 @@ impl MappingSession {
         Self {
             mapper: Mapper::new(config, camera, scale),
             loops: LoopCloser::new(config, camera, scale),
+            detects_loops: true,
             closures: Vec::new(),
             manhattan: WorldManhattan::new(config.tracking.use_manhattan),
             map: Map::default(),
             last_applied: 0,
             last_keyframe: None,
         }
+    }
+
+    /// Leaves loop detection to a loop stage: keyframes are no longer searched for loops
+    /// here, the stage's corrections come through [`Self::apply`].
+    pub fn detect_loops_elsewhere(&mut self) {
+        self.detects_loops = false;
     }
 
     /// The map.
@@ -85,12 +94,15 @@ impl MappingSession {
                 &mut self.manhattan,
                 stop,
             );
-            if let Some(correction) = self.loops.after_keyframe(&self.map, kf) {
-                self.correct(&correction);
-            }
             // A canonical layout, as a mapper restarted from this map will have: local
-            // mapping then goes on the same whether or not the mapper was restarted.
+            // mapping then goes on the same whether or not the mapper was restarted, and
+            // the search for loops sees the map a loop stage decodes.
             self.map.canonicalise();
+            if self.detects_loops
+                && let Some(correction) = self.loops.after_keyframe(&self.map, kf)
+            {
+                self.apply(&correction);
+            }
             self.last_applied = request.seq;
             self.last_keyframe = Some(kf);
         }

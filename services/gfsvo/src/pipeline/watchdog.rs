@@ -81,6 +81,8 @@ fn waiting(
         Stage::Points | Stage::Lines | Stage::Planes => source > made(stage),
         Stage::Tracker => features > tracker && !mapper_waits,
         Stage::Mapper => mapper_waits,
+        // The mapper never waits on it for long (a deadline): a dead one is restarted.
+        Stage::Loop => false,
     })
 }
 
