@@ -14,9 +14,9 @@ use gfs_core::ids::KeyFrameId;
 /// Owns the map and runs local mapping on keyframe requests.
 pub struct MappingSession {
     mapper: Mapper,
-    loops: LoopCloser,
-    /// False when a loop stage detects the loops and sends its corrections ([`Self::apply`]).
-    detects_loops: bool,
+    /// `None` with loop closing off, or when a loop stage detects the loops and sends
+    /// its corrections ([`Self::apply`]).
+    loops: Option<LoopCloser>,
     closures: Vec<LoopClosure>,
     map: Map,
     manhattan: WorldManhattan,
@@ -34,10 +34,10 @@ impl MappingSession {
         levels: u8,
     ) -> Self {
         let scale = ScalePyramid::new(scale_factor, levels);
+        let detects = config.loop_closing.enabled;
         Self {
             mapper: Mapper::new(config, camera, scale),
-            loops: LoopCloser::new(config, camera, scale),
-            detects_loops: true,
+            loops: detects.then(|| LoopCloser::new(config, camera, scale)),
             closures: Vec::new(),
             manhattan: WorldManhattan::new(config.tracking.use_manhattan),
             map: Map::default(),
@@ -46,10 +46,17 @@ impl MappingSession {
         }
     }
 
-    /// Leaves loop detection to a loop stage: keyframes are no longer searched for loops
-    /// here, the stage's corrections come through [`Self::apply`].
-    pub fn detect_loops_elsewhere(&mut self) {
-        self.detects_loops = false;
+    /// A mapping half whose loops a loop stage detects: its keyframes are not searched
+    /// here (no vocabulary loaded), the stage's corrections come through [`Self::apply`].
+    pub fn with_loop_stage(
+        config: &OdometryConfig,
+        camera: PinholeCamera,
+        scale_factor: f64,
+        levels: u8,
+    ) -> Self {
+        let mut config = config.clone();
+        config.loop_closing.enabled = false;
+        Self::new(&config, camera, scale_factor, levels)
     }
 
     /// The map.
@@ -98,8 +105,10 @@ impl MappingSession {
             // mapping then goes on the same whether or not the mapper was restarted, and
             // the search for loops sees the map a loop stage decodes.
             self.map.canonicalise();
-            if self.detects_loops
-                && let Some(correction) = self.loops.after_keyframe(&self.map, kf)
+            if let Some(correction) = self
+                .loops
+                .as_mut()
+                .and_then(|loops| loops.after_keyframe(&self.map, kf))
             {
                 self.apply(&correction);
             }

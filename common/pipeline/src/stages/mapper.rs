@@ -49,7 +49,13 @@ const TYPICAL_MAP_BYTES: usize = 4 << 20;
 pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let camera = ctx.config().camera()?.pinhole;
     let (scale, levels) = ctx.pyramid()?;
-    let mut session = MappingSession::new(&ctx.config().odometry(), camera, scale, levels);
+    let config = ctx.config().odometry();
+    let loop_stage = config.loop_closing.enabled;
+    let mut session = if loop_stage {
+        MappingSession::with_loop_stage(&config, camera, scale, levels)
+    } else {
+        MappingSession::new(&config, camera, scale, levels)
+    };
     let state = ctx.state();
     if let Some(update) = saved_maps(&state)?.into_iter().next() {
         tracing::info!(
@@ -58,8 +64,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         );
         session.restore(update);
     }
-    let loops = if ctx.config().odometry().loop_closing.enabled {
-        session.detect_loops_elsewhere();
+    let loops = if loop_stage {
         Some(LoopPorts {
             maps: ctx.publish(topics::KEYFRAME_MAP, TYPICAL_MAP_BYTES)?,
             verdicts: ctx.subscribe(topics::LOOP_VERDICT)?,
