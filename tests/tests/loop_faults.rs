@@ -87,3 +87,32 @@ fn mapper_killed_around_a_loop_still_closes_it() {
 fn loop_killed_three_times() {
     killed_around_the_loop("loop", "lpkill");
 }
+
+/// The loop stage searches the map the mapper sends and the lockstep mapper waits for
+/// its verdict, so the lockstep pipeline closes the loop where the in-process odometry
+/// does: the published poses (odometry.txt) are the same bytes.
+#[test]
+fn lockstep_closes_the_loop_as_inline_does() {
+    let odometry = |mode: &str| {
+        let (id, out) = (
+            run_id(&format!("lc{}", &mode[..3])),
+            out_dir(&format!("loop_{mode}")),
+        );
+        let child = common::start_on(binaries(), loop_sequence(), &id, &out, &["--mode", mode]);
+        let o = finish(child, &out, &id);
+        assert!(o.success, "{mode}: {}", o.stderr);
+        assert!(o.odometry_ate.is_some(), "{mode}: no loop closed");
+        let text = std::fs::read_to_string(out.join("odometry.txt")).unwrap();
+        (o.degraded, text)
+    };
+    let (_, inline) = odometry("inline");
+    assert_eq!(inline.lines().filter(|l| !l.starts_with('#')).count(), 721);
+    let (degraded, lockstep) = odometry("lockstep");
+    // A frame past its deadline on a loaded machine is tracked without a part.
+    if degraded == 0 {
+        assert!(
+            lockstep == inline,
+            "lockstep odometry.txt differs from inline's"
+        );
+    }
+}
