@@ -129,6 +129,26 @@ fn a_keyframe_made_after_the_correction_moves_with_the_newest_corrected_one() {
 }
 
 #[test]
+fn a_malformed_correction_leaves_the_map_as_it_was() {
+    let scene = Scene::new(200, 0);
+    let truth = pose(0.05, 2f64.to_radians());
+    let (mut map, current) = came_back(&scene, truth);
+    let mut config = OdometryConfig::default();
+    config.loop_closing.consistent_keyframes = 1;
+    let mut closer = LoopCloser::new(&config, camera(), scale());
+    let mut correction = closer.after_keyframe(&map, current).expect("loop found");
+    let before = map.keyframe(current).expect("current").camera_from_world;
+    correction.poses[1].1.translation.vector.x = f64::NAN;
+    assert_eq!(apply_correction(&mut map, &correction), None);
+    correction.poses[1].1 = Isometry3::identity();
+    correction.current = KeyFrameId(999);
+    assert_eq!(apply_correction(&mut map, &correction), None);
+    assert_eq!(map.corrections(), 0);
+    let after = map.keyframe(current).expect("current").camera_from_world;
+    assert_eq!(after, before);
+}
+
+#[test]
 fn a_retired_keyframe_follows_the_corrections_of_its_parent() {
     let scene = Scene::new(50, 0);
     let (mut map, _, first) = first_keyframe(&scene, &OdometryConfig::default());
