@@ -2,7 +2,10 @@
 //! the mapper sends for a loop (place recognition, verification, pose graph) and answers
 //! each with a verdict, the loop's correction or none; the mapper applies corrections
 //! between keyframes. Its place index is rebuilt from the maps it receives, so a
-//! restarted loop stage needs only the keyframe of the last loop (its checkpoint).
+//! restarted loop stage needs only the last request searched and the keyframe of the
+//! last loop (its checkpoint). Each map is searched once: searching one twice (sent
+//! again by a restarted mapper, or from the topic's history) would count its candidates
+//! twice towards consistency; a map sent again gets the verdict it had.
 
 use super::context::{POLL, StageContext, StageError};
 use gfs_core::ids::KeyFrameId;
@@ -13,9 +16,19 @@ use gfs_ipc::{
 use gfs_odometry::loop_closing::LoopCloser;
 use gfs_odometry::matching::ScalePyramid;
 use gfs_odometry::session::{LoopVerdict, MapUpdate};
+use serde::{Deserialize, Serialize};
 
-/// The checkpoint: the keyframe of the last loop found.
+/// The checkpoint ([`Searched`]).
 const CHECKPOINT: &str = "loop.bin";
+
+/// How far the loop stage got.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
+struct Searched {
+    /// The last request whose map was searched.
+    seq: u64,
+    /// The keyframe of the last loop found.
+    last_loop: Option<KeyFrameId>,
+}
 
 /// Runs the loop stage until told to stop. With loop closing off it idles (the mapper
 /// then sends it nothing).
@@ -29,7 +42,10 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let config = ctx.config().odometry();
     let state = ctx.state();
     let mut closer = LoopCloser::new(&config, camera, ScalePyramid::new(scale, levels));
-    closer.resume(state.read::<Option<KeyFrameId>>(CHECKPOINT)?.flatten());
+    let mut searched = state.read::<Searched>(CHECKPOINT)?.unwrap_or_default();
+    closer.resume(searched.last_loop);
+    // The last verdict sent, sent again when its map comes again.
+    let mut last_verdict: Option<(u64, Vec<u8>)> = None;
     let verdicts = ctx.publish::<u8>(topics::LOOP_VERDICT, 1 << 16)?;
     let maps = ctx.subscribe::<u8>(topics::KEYFRAME_MAP)?;
     let (mut bytes, mut scratch) = (Vec::new(), Vec::new());
@@ -43,6 +59,14 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             tracing::warn!("loop: dropping an inconsistent map: {e}");
             continue;
         }
+        if update.seq <= searched.seq {
+            if let Some((seq, verdict)) = &last_verdict
+                && *seq == update.seq
+            {
+                verdicts.publish_slice(&header, verdict)?;
+            }
+            continue;
+        }
         header.mark_received(Stage::Loop);
         header.mark_started(Stage::Loop);
         let mut map = update.map;
@@ -51,7 +75,6 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         let correction = update
             .keyframe
             .and_then(|kf| closer.after_keyframe(&map, kf));
-        let found = correction.is_some();
         let verdict = LoopVerdict {
             seq: update.seq,
             correction,
@@ -66,9 +89,12 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         header.mark_finished(Stage::Loop);
         verdicts.publish_slice(&header, &bytes)?;
         ctx.made(header.frame_id);
-        if found {
-            state.write(CHECKPOINT, &closer.last_loop(), &mut scratch)?;
-        }
+        searched = Searched {
+            seq: update.seq,
+            last_loop: closer.last_loop(),
+        };
+        state.write(CHECKPOINT, &searched, &mut scratch)?;
+        last_verdict = Some((update.seq, bytes.clone()));
     }
     Ok(())
 }
