@@ -64,7 +64,9 @@ fn stopped_stage_is_restarted(stage: &str) {
 fn a_stopped_stage_is_killed_as_hung_and_restarted() {
     // One after the other: six runs at once on a small machine could starve a stage
     // for longer than the short hang timeout.
-    for stage in STAGES {
+    // Not the loop stage: the mapper goes on without its verdict after a deadline, so a
+    // stopped loop stage holds nothing up (it is restarted when it dies).
+    for stage in STAGES.into_iter().filter(|s| *s != "loop") {
         stopped_stage_is_restarted(stage);
     }
 }

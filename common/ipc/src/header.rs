@@ -26,11 +26,13 @@ pub enum Stage {
     Tracker = 4,
     /// Local mapping.
     Mapper = 5,
+    /// Loop closing: detection, verification, pose graph.
+    Loop = 6,
 }
 
 impl Stage {
     /// Number of stages (length of the stamp array).
-    pub const COUNT: usize = 6;
+    pub const COUNT: usize = 7;
 
     /// All stages in pipeline order.
     pub const ALL: [Stage; Stage::COUNT] = [
@@ -40,6 +42,7 @@ impl Stage {
         Stage::Planes,
         Stage::Tracker,
         Stage::Mapper,
+        Stage::Loop,
     ];
 
     /// Slot of this stage in [`MsgHeader::stamps`].
@@ -56,6 +59,7 @@ impl Stage {
             Stage::Planes => "planes",
             Stage::Tracker => "tracker",
             Stage::Mapper => "mapper",
+            Stage::Loop => "loop",
         }
     }
 
@@ -106,7 +110,7 @@ fn span(from: u64, to: u64) -> Option<u64> {
 }
 
 /// The header of every message: which frame, when it was captured, and when each stage
-/// handled it. Fixed layout (`#[repr(C)]`, 160 bytes) shared by all processes.
+/// handled it. Fixed layout (`#[repr(C)]`, 184 bytes) shared by all processes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
 #[type_name("gfsvo::MsgHeader")]
 #[repr(C)]
@@ -188,7 +192,7 @@ mod tests {
     #[test]
     fn layout_is_fixed() {
         assert_eq!(std::mem::size_of::<StageStamp>(), 24);
-        assert_eq!(std::mem::size_of::<MsgHeader>(), 8 + 8 + 6 * 24);
+        assert_eq!(std::mem::size_of::<MsgHeader>(), 8 + 8 + 7 * 24);
         assert_eq!(std::mem::align_of::<MsgHeader>(), 8);
     }
 

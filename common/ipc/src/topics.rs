@@ -62,9 +62,31 @@ pub const LOCAL_MAP: TopicSpec = TopicSpec {
     kind: TopicKind::Variable,
 };
 
+/// `mapper` -> `loop`: the map after local mapping of each keyframe (bincode), sent
+/// only with loop closing on.
+pub const KEYFRAME_MAP: TopicSpec = TopicSpec {
+    name: "keyframe-map",
+    kind: TopicKind::Variable,
+};
+/// `loop` -> `mapper`: the verdict on each keyframe's map, a loop correction or none
+/// (bincode).
+pub const LOOP_VERDICT: TopicSpec = TopicSpec {
+    name: "loop-verdict",
+    kind: TopicKind::Variable,
+};
+
 /// Every topic of the pipeline.
-pub const ALL: [TopicSpec; 8] = [
-    FRAME, POINTS, LINES, MANHATTAN, SURFACES, POSE, KEYFRAME, LOCAL_MAP,
+pub const ALL: [TopicSpec; 10] = [
+    FRAME,
+    POINTS,
+    LINES,
+    MANHATTAN,
+    SURFACES,
+    POSE,
+    KEYFRAME,
+    LOCAL_MAP,
+    KEYFRAME_MAP,
+    LOOP_VERDICT,
 ];
 
 #[cfg(test)]

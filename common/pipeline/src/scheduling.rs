@@ -131,7 +131,7 @@ impl SchedulingConfig {
     pub fn default_for(stage: Stage) -> StageScheduling {
         StageScheduling {
             nice: match stage {
-                Stage::Mapper => KEYFRAME_STAGE_NICE,
+                Stage::Mapper | Stage::Loop => KEYFRAME_STAGE_NICE,
                 _ => 0,
             },
             ..StageScheduling::default()
@@ -293,13 +293,17 @@ mod tests {
     }
 
     #[test]
-    fn the_mapper_yields_to_the_frame_path_by_default() {
+    fn the_keyframe_stages_yield_to_the_frame_path_by_default() {
         let config = SchedulingConfig::default();
         for stage in Stage::ALL {
             let s = config.for_stage(stage);
             assert_eq!(s.policy, Policy::Other);
             assert!(s.cpus.is_empty());
-            let expected = if stage == Stage::Mapper { 10 } else { 0 };
+            let expected = if matches!(stage, Stage::Mapper | Stage::Loop) {
+                10
+            } else {
+                0
+            };
             assert_eq!(s.nice, expected, "{}", stage.name());
         }
     }

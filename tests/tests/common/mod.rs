@@ -13,7 +13,9 @@ use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 pub const FRAMES: usize = 150;
-pub const STAGES: [&str; 6] = ["source", "points", "lines", "planes", "tracker", "mapper"];
+pub const STAGES: [&str; 7] = [
+    "source", "points", "lines", "planes", "tracker", "mapper", "loop",
+];
 
 /// The folder holding `gfsvo` and the stage executables, built if needed.
 pub fn binaries() -> &'static Path {

@@ -27,6 +27,9 @@ pub struct StageTimes {
     /// Local mapping (keyframes only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mapper: Option<StageStamp>,
+    /// Loop closing (keyframes only, on the map the mapper sent it).
+    #[serde(rename = "loop", skip_serializing_if = "Option::is_none")]
+    pub loop_closing: Option<StageStamp>,
 }
 
 impl StageTimes {
@@ -43,6 +46,7 @@ impl StageTimes {
             Stage::Planes => &self.planes,
             Stage::Tracker => &self.tracker,
             Stage::Mapper => &self.mapper,
+            Stage::Loop => &self.loop_closing,
         }
     }
 
@@ -54,6 +58,7 @@ impl StageTimes {
             Stage::Planes => &mut self.planes,
             Stage::Tracker => &mut self.tracker,
             Stage::Mapper => &mut self.mapper,
+            Stage::Loop => &mut self.loop_closing,
         }
     }
 

@@ -1,6 +1,7 @@
-//! The loop correction: a pose graph over every keyframe of the map (SE(3), ORB-SLAM2's
-//! essential graph without its scale), optimised with the old side of the loop held,
-//! then every landmark moved with its reference keyframe.
+//! The loop's pose graph over every keyframe of the map (SE(3), ORB-SLAM2's essential
+//! graph without its scale), optimised with the old side of the loop held. It reads the
+//! map only: the corrected poses go into a [`super::LoopCorrection`], applied to the
+//! map (possibly a newer one, in the loop stage) by [`super::apply_correction`].
 //!
 //! Edges, each measuring `i_from_j` as the map had it before the correction:
 //! - the chain of keyframes in id order (the spanning tree of a map grown one keyframe
@@ -17,7 +18,7 @@
 use super::verify::LoopMatch;
 use crate::map::Map;
 use gfs_core::ids::KeyFrameId;
-use gfs_optim::{PoseGraph, PoseGraphConfig, PoseGraphError, PoseGraphReport};
+use gfs_optim::{PoseGraph, PoseGraphConfig, PoseGraphError};
 use nalgebra::{Isometry3, Matrix6};
 use std::collections::HashMap;
 
@@ -25,16 +26,15 @@ use std::collections::HashMap;
 const STRONG_COVISIBILITY: u32 = 100;
 
 /// Optimises the keyframe poses of `map` for the verified loop `found` of keyframe
-/// `current`, and moves the landmarks with their reference keyframes.
+/// `current`. Returns the optimised `world_from_camera` of every keyframe, in id order.
 ///
 /// # Errors
-/// [`PoseGraphError`] when the graph could not be optimised (the map is left as it
-/// was).
-pub fn correct_loop(
-    map: &mut Map,
+/// [`PoseGraphError`] when the graph could not be optimised.
+pub fn optimise_loop(
+    map: &Map,
     current: KeyFrameId,
     found: &LoopMatch,
-) -> Result<PoseGraphReport, PoseGraphError> {
+) -> Result<Vec<(KeyFrameId, Isometry3<f64>)>, PoseGraphError> {
     let ids = map.keyframe_ids();
     let old: Vec<Isometry3<f64>> = ids
         .iter()
@@ -85,19 +85,10 @@ pub fn correct_loop(
         let corrected = new_from_old * old[n];
         graph.add_edge(cand, n, old[cand].inverse() * corrected, information)?;
     }
-    let report = graph.optimize(&PoseGraphConfig::default())?;
-    // Each keyframe's correction `new_from_old`, applied to the landmarks it anchors.
-    let mut moved: HashMap<KeyFrameId, Isometry3<f64>> = HashMap::with_capacity(ids.len());
-    for (n, kf) in ids.iter().enumerate() {
-        let new = *graph.pose(n);
-        let new_from_old = new * old[n].inverse();
-        moved.insert(*kf, new_from_old);
-        if let Some(k) = map.keyframe_mut(*kf) {
-            k.camera_from_world = new.inverse();
-            k.loop_correction = new_from_old * k.loop_correction;
-        }
-    }
-    map.move_landmarks(|first_kf| moved.get(&first_kf).copied());
-    map.count_correction();
-    Ok(report)
+    graph.optimize(&PoseGraphConfig::default())?;
+    Ok(ids
+        .iter()
+        .enumerate()
+        .map(|(n, kf)| (*kf, *graph.pose(n)))
+        .collect())
 }

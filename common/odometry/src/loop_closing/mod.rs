@@ -1,17 +1,20 @@
 //! Loop closing: coming back to a place mapped before. After each keyframe, candidates
 //! are looked for by appearance ([`place`], bag of words) and by position in the drifted
 //! estimate ([`detect`]), kept when consistent over consecutive keyframes
-//! ([`consistency`]), verified geometrically ([`verify`]), and a verified loop
-//! corrects the map ([`correct`]): a pose graph over the keyframes, the landmarks moved
-//! with their keyframes, and the current keyframe's matches to the old side fused, so
-//! that tracking and local mapping go on against the old landmarks.
+//! ([`consistency`]), verified geometrically ([`verify`]), and a verified loop gives a
+//! [`LoopCorrection`] ([`correct`]: a pose graph over the keyframes). Applied to the map
+//! ([`correction`]), it moves the keyframes and the landmarks with them and fuses the
+//! current keyframe's matches to the old side, so that tracking and local mapping go on
+//! against the old landmarks.
 //!
-//! The [`LoopCloser`] runs in the mapping half, after local mapping, on the map the
-//! mapping half owns; the tracker sees the correction in the next map it receives
-//! ([`crate::map::Map::corrections`]).
+//! Detection reads the map only, so it can run apart from the mapping half that owns
+//! the map: inline, the mapping half detects and applies on the same map after local
+//! mapping; in the pipeline the loop stage detects and the mapper applies. The tracker
+//! sees the correction in the next map it receives ([`crate::map::Map::corrections`]).
 
 mod consistency;
 mod correct;
+mod correction;
 mod detect;
 mod place;
 #[cfg(test)]
@@ -19,7 +22,8 @@ mod tests;
 mod verify;
 
 pub use consistency::ConsistentGroups;
-pub use correct::correct_loop;
+pub use correct::optimise_loop;
+pub use correction::{LoopCorrection, apply_correction};
 pub use detect::proximity_candidates;
 pub use place::PlaceIndex;
 pub use verify::{LoopMatch, Verifier};
@@ -70,10 +74,21 @@ impl LoopCloser {
         }
     }
 
-    /// Looks for a loop at keyframe `kf` (just mapped) and closes the first verified
-    /// one. Returns it, or `None` (disabled, too soon after the last loop, no candidate,
-    /// none verified, or the pose graph failed; the map is then unchanged).
-    pub fn after_keyframe(&mut self, map: &mut Map, kf: KeyFrameId) -> Option<LoopClosure> {
+    /// The keyframe of the last loop found (a restarted loop stage's checkpoint).
+    pub fn last_loop(&self) -> Option<KeyFrameId> {
+        self.last_loop
+    }
+
+    /// Resumes after a loop found at `kf` (no other loop for the next keyframes).
+    pub fn resume(&mut self, last_loop: Option<KeyFrameId>) {
+        self.last_loop = last_loop;
+    }
+
+    /// Looks for a loop at keyframe `kf` (just mapped) and returns the correction of
+    /// the first verified one, or `None` (disabled, too soon after the last loop, no
+    /// candidate, none verified, or the pose graph failed). The map is not changed:
+    /// [`apply_correction`] does that.
+    pub fn after_keyframe(&mut self, map: &Map, kf: KeyFrameId) -> Option<LoopCorrection> {
         if !self.config.enabled {
             return None;
         }
@@ -98,49 +113,28 @@ impl LoopCloser {
             self.verifier
                 .verify(map, kf, candidate, self.config.min_inliers, kf.0)
         })?;
-        let before = map.keyframe(kf)?.world_from_camera();
-        if let Err(e) = correct_loop(map, kf, &found) {
-            tracing::warn!(keyframe = %kf, candidate = %found.candidate, "loop not corrected: {e}");
-            return None;
-        }
-        fuse_matches(map, kf, &found);
-        let after = map.keyframe(kf)?.world_from_camera();
+        let poses = match optimise_loop(map, kf, &found) {
+            Ok(poses) => poses,
+            Err(e) => {
+                tracing::warn!(keyframe = %kf, candidate = %found.candidate, "loop not corrected: {e}");
+                return None;
+            }
+        };
         self.last_loop = Some(kf);
         self.groups.clear();
-        let closure = LoopClosure {
+        Some(LoopCorrection {
             current: kf,
             candidate: found.candidate,
             inliers: found.inliers,
-            shift_m: (after.translation.vector - before.translation.vector).norm(),
             by_appearance: by_appearance.contains(&found.candidate),
-        };
-        tracing::info!(
-            keyframe = %kf,
-            candidate = %found.candidate,
-            inliers = found.inliers,
-            shift_m = closure.shift_m,
-            by_appearance = closure.by_appearance,
-            "loop closed"
-        );
-        Some(closure)
-    }
-}
-
-/// Links the current keyframe's keypoints to the old side's points they matched: a
-/// free keypoint gets the observation, one with a point of its own has that point merged
-/// into the old one (the old side is the drift-free one).
-fn fuse_matches(map: &mut Map, kf: KeyFrameId, found: &LoopMatch) {
-    for (i, old) in found.point_ids.iter().enumerate() {
-        let Some(old) = *old else { continue };
-        let own = map
-            .keyframe(kf)
-            .and_then(|k| k.point_ids.get(i).copied().flatten());
-        match own {
-            None => {
-                map.link(old, kf, i);
-            }
-            Some(own) if own != old => map.merge(own, old),
-            Some(_) => {}
-        }
+            poses,
+            matches: found
+                .point_ids
+                .iter()
+                .enumerate()
+                .filter_map(|(i, old)| old.map(|old| (i, old)))
+                .collect(),
+            map_corrections: map.corrections(),
+        })
     }
 }

@@ -49,9 +49,16 @@ fn a_drifted_return_is_found_verified_and_pulled_onto_the_old_place() {
         vec![KeyFrameId(0)]
     );
     let mut closer = LoopCloser::new(&config, camera(), scale());
-    let closure = closer
-        .after_keyframe(&mut map, current)
-        .expect("loop closed");
+    let correction = closer.after_keyframe(&map, current).expect("loop found");
+    // The correction travels as bincode between the loop stage and the mapper.
+    let wire = bincode::config::standard();
+    let bytes = bincode::serde::encode_to_vec(&correction, wire).expect("encode");
+    let (sent, _): (LoopCorrection, usize) =
+        bincode::serde::decode_from_slice(&bytes, wire).expect("decode");
+    assert_eq!(sent, correction);
+    let closure = apply_correction(&mut map, &sent).expect("loop closed");
+    // Applied once: the same correction again is stale.
+    assert_eq!(apply_correction(&mut map, &sent), None);
     assert_eq!(
         (closure.current, closure.candidate),
         (current, KeyFrameId(0))
@@ -70,7 +77,7 @@ fn a_drifted_return_is_found_verified_and_pulled_onto_the_old_place() {
     assert_eq!(map.corrections(), 1);
     assert_ne!(kf.loop_correction, Isometry3::identity());
     // Too soon for another loop.
-    assert_eq!(closer.after_keyframe(&mut map, current), None);
+    assert_eq!(closer.after_keyframe(&map, current), None);
 }
 
 #[test]
@@ -79,9 +86,9 @@ fn nothing_is_closed_when_disabled_or_when_the_place_is_not_the_same() {
     let truth = pose(0.05, 0.0);
     let mut config = OdometryConfig::default();
     config.loop_closing.enabled = false;
-    let (mut map, current) = came_back(&scene, truth);
+    let (map, current) = came_back(&scene, truth);
     let mut closer = LoopCloser::new(&config, camera(), scale());
-    assert_eq!(closer.after_keyframe(&mut map, current), None);
+    assert_eq!(closer.after_keyframe(&map, current), None);
     assert_eq!(map.corrections(), 0);
     // Another scene seen from the same pose: a candidate by position, but no match.
     let other = Scene::new(200, 0);
@@ -92,8 +99,53 @@ fn nothing_is_closed_when_disabled_or_when_the_place_is_not_the_same() {
     config.loop_closing.enabled = true;
     config.loop_closing.consistent_keyframes = 1;
     let mut closer = LoopCloser::new(&config, camera(), scale());
-    assert_eq!(closer.after_keyframe(&mut map2, wrong), None);
+    assert_eq!(closer.after_keyframe(&map2, wrong), None);
     assert_eq!(map2.corrections(), 0);
+}
+
+#[test]
+fn a_keyframe_made_after_the_correction_moves_with_the_newest_corrected_one() {
+    let scene = Scene::new(200, 0);
+    let truth = pose(0.05, 2f64.to_radians());
+    let (mut map, current) = came_back(&scene, truth);
+    let mut config = OdometryConfig::default();
+    config.loop_closing.consistent_keyframes = 1;
+    let mut closer = LoopCloser::new(&config, camera(), scale());
+    let correction = closer.after_keyframe(&map, current).expect("loop found");
+    // The mapper made one more keyframe, 10 cm past the returning one, before the
+    // correction came (the loop stage computed it on the older map).
+    let step = Isometry3::translation(0.1, 0.0, 0.0);
+    let drifted = map.keyframe(current).expect("current").camera_from_world;
+    let newer = map.insert_keyframe(unlinked(crate::FrameFeatures::default(), step * drifted));
+    apply_correction(&mut map, &correction).expect("loop closed");
+    let corrected = map.keyframe(current).expect("current").camera_from_world;
+    let followed = map.keyframe(newer).expect("newer");
+    // It kept its place relative to the returning keyframe, and carries its correction.
+    let relative = followed.camera_from_world * corrected.inverse();
+    assert!((relative.translation.vector - step.translation.vector).norm() < 1e-9);
+    assert!(relative.rotation.angle() < 1e-9);
+    let own = map.keyframe(current).expect("current").loop_correction;
+    assert!((followed.loop_correction.translation.vector - own.translation.vector).norm() < 1e-9);
+}
+
+#[test]
+fn a_malformed_correction_leaves_the_map_as_it_was() {
+    let scene = Scene::new(200, 0);
+    let truth = pose(0.05, 2f64.to_radians());
+    let (mut map, current) = came_back(&scene, truth);
+    let mut config = OdometryConfig::default();
+    config.loop_closing.consistent_keyframes = 1;
+    let mut closer = LoopCloser::new(&config, camera(), scale());
+    let mut correction = closer.after_keyframe(&map, current).expect("loop found");
+    let before = map.keyframe(current).expect("current").camera_from_world;
+    correction.poses[1].1.translation.vector.x = f64::NAN;
+    assert_eq!(apply_correction(&mut map, &correction), None);
+    correction.poses[1].1 = Isometry3::identity();
+    correction.current = KeyFrameId(999);
+    assert_eq!(apply_correction(&mut map, &correction), None);
+    assert_eq!(map.corrections(), 0);
+    let after = map.keyframe(current).expect("current").camera_from_world;
+    assert_eq!(after, before);
 }
 
 #[test]

@@ -3,7 +3,7 @@
 
 use super::messages::{KeyFrameRequest, MapUpdate, MapUpdateRef};
 use crate::config::OdometryConfig;
-use crate::loop_closing::{LoopCloser, LoopClosure};
+use crate::loop_closing::{LoopCloser, LoopClosure, LoopCorrection, apply_correction};
 use crate::manhattan::WorldManhattan;
 use crate::map::Map;
 use crate::mapper::Mapper;
@@ -14,7 +14,9 @@ use gfs_core::ids::KeyFrameId;
 /// Owns the map and runs local mapping on keyframe requests.
 pub struct MappingSession {
     mapper: Mapper,
-    loops: LoopCloser,
+    /// `None` with loop closing off, or when a loop stage detects the loops and sends
+    /// its corrections ([`Self::apply`]).
+    loops: Option<LoopCloser>,
     closures: Vec<LoopClosure>,
     map: Map,
     manhattan: WorldManhattan,
@@ -32,15 +34,29 @@ impl MappingSession {
         levels: u8,
     ) -> Self {
         let scale = ScalePyramid::new(scale_factor, levels);
+        let detects = config.loop_closing.enabled;
         Self {
             mapper: Mapper::new(config, camera, scale),
-            loops: LoopCloser::new(config, camera, scale),
+            loops: detects.then(|| LoopCloser::new(config, camera, scale)),
             closures: Vec::new(),
             manhattan: WorldManhattan::new(config.tracking.use_manhattan),
             map: Map::default(),
             last_applied: 0,
             last_keyframe: None,
         }
+    }
+
+    /// A mapping half whose loops a loop stage detects: its keyframes are not searched
+    /// here (no vocabulary loaded), the stage's corrections come through [`Self::apply`].
+    pub fn with_loop_stage(
+        config: &OdometryConfig,
+        camera: PinholeCamera,
+        scale_factor: f64,
+        levels: u8,
+    ) -> Self {
+        let mut config = config.clone();
+        config.loop_closing.enabled = false;
+        Self::new(&config, camera, scale_factor, levels)
     }
 
     /// The map.
@@ -85,17 +101,40 @@ impl MappingSession {
                 &mut self.manhattan,
                 stop,
             );
-            if let Some(closure) = self.loops.after_keyframe(&mut self.map, kf) {
-                self.mapper.fuse_around(&mut self.map, kf);
-                self.closures.push(closure);
-            }
             // A canonical layout, as a mapper restarted from this map will have: local
-            // mapping then goes on the same whether or not the mapper was restarted.
+            // mapping then goes on the same whether or not the mapper was restarted, and
+            // the search for loops sees the map a loop stage decodes.
             self.map.canonicalise();
+            if let Some(correction) = self
+                .loops
+                .as_mut()
+                .and_then(|loops| loops.after_keyframe(&self.map, kf))
+            {
+                self.apply(&correction);
+            }
             self.last_applied = request.seq;
             self.last_keyframe = Some(kf);
         }
         self.update()
+    }
+
+    /// Applies a loop correction (the loop stage's, between keyframes) to the map.
+    /// Returns true when it was applied; a stale one is dropped.
+    pub fn apply(&mut self, correction: &LoopCorrection) -> bool {
+        let applied = self.correct(correction);
+        self.map.canonicalise();
+        applied
+    }
+
+    /// Applies `correction`, then fuses around its current keyframe (its neighbours
+    /// now see the old side's landmarks too).
+    fn correct(&mut self, correction: &LoopCorrection) -> bool {
+        let Some(closure) = apply_correction(&mut self.map, correction) else {
+            return false;
+        };
+        self.mapper.fuse_around(&mut self.map, closure.current);
+        self.closures.push(closure);
+        true
     }
 
     /// The map as it stands, answering the last request applied.

@@ -2,6 +2,7 @@
 //! keyframe request one way, the map after local mapping the other way. Both are plain
 //! serde values; the pipeline sends them as bincode, the in-process odometry by value.
 
+use crate::loop_closing::LoopCorrection;
 use crate::manhattan::WorldManhattan;
 use crate::map::Map;
 use crate::sightings::Sightings;
@@ -40,6 +41,17 @@ pub struct MapUpdate {
     /// The mapper's recently created points still on probation: not used by the
     /// tracker, but part of the mapper's checkpoint (this message).
     pub recent_points: Vec<MapPointId>,
+}
+
+/// The loop stage's answer to the map of one keyframe request: the correction of the
+/// loop it closed there, if any. Every keyframe gets one, so that a lockstep mapper can
+/// wait for it and stay reproducible.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LoopVerdict {
+    /// The request whose map was searched ([`MapUpdate::seq`]).
+    pub seq: u64,
+    /// The loop closed at its keyframe.
+    pub correction: Option<LoopCorrection>,
 }
 
 /// [`MapUpdate`] borrowed from the mapper, to encode without copying the map.

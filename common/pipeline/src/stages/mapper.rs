@@ -1,11 +1,19 @@
 //! `mapper`: owns the map; turns each keyframe request into a keyframe with local
 //! mapping (landmarks, fusion, local BA, culling) and answers with the map. The map it
 //! sends is also its checkpoint, which a restarted mapper (and tracker) resumes from.
+//! With loop closing on, the map of each keyframe also goes to the loop stage, and the
+//! loop corrections it sends back are applied between keyframes; in lockstep the
+//! mapper waits for the verdict on each keyframe before answering (up to the feature
+//! deadline, so that a dead loop stage cannot hang the run), as the inline odometry
+//! closes loops before answering.
 
 use super::context::{POLL, StageContext, StageError};
 use crate::state::{StateDir, StateError};
-use gfs_ipc::{MAX_VARIABLE_MESSAGE_BYTES, Mode, Service, Stage, encode_message, topics};
-use gfs_odometry::session::{KeyFrameRequest, MapUpdate, MappingSession};
+use gfs_ipc::{
+    MAX_VARIABLE_MESSAGE_BYTES, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
+    encode_message, topics,
+};
+use gfs_odometry::session::{KeyFrameRequest, LoopVerdict, MapUpdate, MappingSession};
 use std::time::{Duration, Instant};
 
 /// The checkpoints: the last two maps sent (bincode [`MapUpdate`]s), by the parity of
@@ -41,7 +49,13 @@ const TYPICAL_MAP_BYTES: usize = 4 << 20;
 pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let camera = ctx.config().camera()?.pinhole;
     let (scale, levels) = ctx.pyramid()?;
-    let mut session = MappingSession::new(&ctx.config().odometry(), camera, scale, levels);
+    let config = ctx.config().odometry();
+    let loop_stage = config.loop_closing.enabled;
+    let mut session = if loop_stage {
+        MappingSession::with_loop_stage(&config, camera, scale, levels)
+    } else {
+        MappingSession::new(&config, camera, scale, levels)
+    };
     let state = ctx.state();
     if let Some(update) = saved_maps(&state)?.into_iter().next() {
         tracing::info!(
@@ -50,6 +64,14 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         );
         session.restore(update);
     }
+    let loops = if loop_stage {
+        Some(LoopPorts {
+            maps: ctx.publish(topics::KEYFRAME_MAP, TYPICAL_MAP_BYTES)?,
+            verdicts: ctx.subscribe(topics::LOOP_VERDICT)?,
+        })
+    } else {
+        None
+    };
     let requests = ctx.subscribe::<u8>(topics::KEYFRAME)?;
     let publisher = ctx.publish::<u8>(topics::LOCAL_MAP, TYPICAL_MAP_BYTES)?;
     let mut bytes = Vec::new();
@@ -58,10 +80,16 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     // Realtime: yield to the next keyframe (ORB-SLAM2's abort flag) or to the budget.
     let next_keyframe_waits = || requests.port().has_samples().unwrap_or(false);
     while !ctx.stopping() {
+        if let Some(loops) = &loops {
+            loops.take(&mut session, None)?;
+        }
         let Some((mut header, request)) =
             requests.receive_decoded::<KeyFrameRequest>(MAX_VARIABLE_MESSAGE_BYTES)?
         else {
             publisher.update_connections()?;
+            if let Some(loops) = &loops {
+                loops.maps.update_connections()?;
+            }
             requests.wait(POLL * 25)?;
             continue;
         };
@@ -72,6 +100,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         header.mark_received(Stage::Mapper);
         header.mark_started(Stage::Mapper);
         let started = Instant::now();
+        let applied_before = session.last_applied();
         let update = match budget {
             Some(budget) => session.insert_until(request, &|| {
                 started.elapsed() >= budget || next_keyframe_waits()
@@ -86,10 +115,90 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             continue;
         }
         header.mark_finished(Stage::Mapper);
+        if let Some(loops) = &loops
+            && session.last_applied() > applied_before
+        {
+            loops.maps.publish_slice(&header, &bytes)?;
+            if ctx.mode() == Mode::Lockstep
+                && loops.await_verdict(ctx, &mut session, &mut header)?
+                && let Err(e) = encode_message(&session.update(), &mut bytes)
+            {
+                tracing::error!(
+                    frame = header.frame_id,
+                    "mapper: cannot encode the corrected map: {e}"
+                );
+                continue;
+            }
+        }
         publisher.publish_slice(&header, &bytes)?;
         ctx.made(header.frame_id);
         let name = MAP_CHECKPOINTS[(session.last_applied() % 2) as usize];
         state.write_bytes(name, &bytes)?;
     }
     Ok(())
+}
+
+/// The mapper's ports to the loop stage.
+struct LoopPorts<S: Service> {
+    maps: TopicPublisher<S, u8>,
+    verdicts: TopicSubscriber<S, u8>,
+}
+
+impl<S: Service> LoopPorts<S> {
+    /// Applies the corrections of the verdicts received. Returns the header of the
+    /// verdict on request `wanted` when it came, and whether a correction was applied.
+    fn take(
+        &self,
+        session: &mut MappingSession,
+        wanted: Option<u64>,
+    ) -> Result<(Option<MsgHeader>, bool), StageError> {
+        let (mut answer, mut corrected) = (None, false);
+        while let Some((header, verdict)) = self
+            .verdicts
+            .receive_decoded::<LoopVerdict>(MAX_VARIABLE_MESSAGE_BYTES)?
+        {
+            if let Some(correction) = &verdict.correction {
+                corrected |= session.apply(correction);
+            }
+            if Some(verdict.seq) == wanted {
+                answer = Some(header);
+            }
+        }
+        Ok((answer, corrected))
+    }
+
+    /// Lockstep: waits for the loop stage's verdict on the request just applied, up to
+    /// the feature deadline, and takes the loop stage's stamps into `header`. Returns
+    /// true when a correction was applied (the map must be encoded again).
+    fn await_verdict(
+        &self,
+        ctx: &StageContext<S>,
+        session: &mut MappingSession,
+        header: &mut MsgHeader,
+    ) -> Result<bool, StageError> {
+        let wanted = session.last_applied();
+        let deadline = Instant::now() + ctx.feature_deadline();
+        let mut corrected = false;
+        loop {
+            let (answer, applied) = self.take(session, Some(wanted))?;
+            corrected |= applied;
+            if let Some(answer) = answer {
+                *header.stamp_mut(Stage::Loop) = answer.stamp(Stage::Loop);
+                return Ok(corrected);
+            }
+            if ctx.stopping() {
+                return Ok(corrected);
+            }
+            if Instant::now() >= deadline {
+                tracing::warn!(
+                    request = wanted,
+                    "mapper: no loop verdict in time; going on without it"
+                );
+                return Ok(corrected);
+            }
+            // A restarted loop stage connects here and gets this map from the history.
+            self.maps.update_connections()?;
+            self.verdicts.wait(POLL)?;
+        }
+    }
 }

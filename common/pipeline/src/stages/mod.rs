@@ -7,6 +7,7 @@ mod bag_source;
 mod context;
 mod join;
 mod lines;
+mod loop_closing;
 mod mapper;
 mod planes;
 mod points;
@@ -16,13 +17,25 @@ mod tracker;
 
 pub use context::{StageContext, StageError, StageSettings};
 pub use lines::run as run_lines;
+pub use loop_closing::run as run_loop;
 pub use mapper::run as run_mapper;
 pub use planes::run as run_planes;
 pub use points::run as run_points;
 pub use source::run as run_source;
 pub use tracker::run as run_tracker;
 
+use crate::config::Config;
 use gfs_ipc::{Service, Stage};
+
+/// The stages a run with `config` starts: every one, the loop stage only with loop
+/// closing on.
+pub fn stages_to_run(config: &Config) -> Vec<Stage> {
+    let loops = config.odometry().loop_closing.enabled;
+    Stage::ALL
+        .into_iter()
+        .filter(|s| *s != Stage::Loop || loops)
+        .collect()
+}
 
 /// Runs `stage` until it is told to stop.
 ///
@@ -37,5 +50,6 @@ pub fn run_stage<S: Service>(stage: Stage, ctx: &StageContext<S>) -> Result<(), 
         Stage::Planes => run_planes(ctx),
         Stage::Tracker => run_tracker(ctx),
         Stage::Mapper => run_mapper(ctx),
+        Stage::Loop => run_loop(ctx),
     }
 }

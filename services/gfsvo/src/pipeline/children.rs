@@ -52,19 +52,20 @@ pub struct StageProcesses {
 }
 
 impl StageProcesses {
-    /// Starts every stage with `args` (the same for all), scheduled as `scheduling`
+    /// Starts `stages` with `args` (the same for all), scheduled as `scheduling`
     /// says; the source role is played by `source_executable` when given (`gfsvo-ros2`).
     ///
     /// # Errors
     /// [`ChildError`] when an executable is missing or cannot start.
     pub fn start(
         dir: &Path,
+        stages: &[Stage],
         args: Vec<OsString>,
         policy: RestartPolicy,
         scheduling: SchedulingConfig,
         source_executable: Option<String>,
     ) -> Result<Self, ChildError> {
-        for stage in Stage::ALL {
+        for &stage in stages {
             let path = executable(dir, stage, source_executable.as_deref());
             if !path.is_file() {
                 return Err(ChildError::Missing(path));
@@ -78,7 +79,7 @@ impl StageProcesses {
             policy,
             scheduling,
         };
-        for stage in Stage::ALL {
+        for &stage in stages {
             let child = pool.spawn(stage)?;
             pool.children.push((stage, child));
         }

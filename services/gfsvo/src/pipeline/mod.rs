@@ -1,4 +1,4 @@
-//! The supervisor of `gfsvo run`: starts the six stages (as processes, or as threads in
+//! The supervisor of `gfsvo run`: starts the stages (the loop stage with loop closing on) (as processes, or as threads in
 //! `--mode threads`), records the pose of every frame, restarts a stage that dies, and
 //! shuts everything down, leaving nothing of the run in shared memory.
 
@@ -17,7 +17,7 @@ use gfs_ipc::profile::Profile;
 use gfs_ipc::{IpcRun, RunId, Service, Stage, ipc, local};
 use gfs_odometry::FramePose;
 use gfs_pipeline::progress::ProgressBoard;
-use gfs_pipeline::stages::StageSettings;
+use gfs_pipeline::stages::{StageSettings, stages_to_run};
 use restarts::RestartPolicy;
 use std::collections::BTreeMap;
 use std::ffi::OsString;
@@ -135,6 +135,7 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
         });
         let mut pool = StageProcesses::start(
             &dir,
+            &stages_to_run(&options.settings.config),
             stage_args(options),
             policy,
             options.settings.config.pipeline.scheduling.clone(),

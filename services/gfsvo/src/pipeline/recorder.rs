@@ -88,6 +88,7 @@ impl<S: Service> Recorder<S> {
         while let Some(sample) = self.maps.receive()? {
             self.profile
                 .record_stage(sample.user_header(), Stage::Mapper);
+            self.profile.record_stage(sample.user_header(), Stage::Loop);
         }
         Ok(new)
     }

@@ -4,6 +4,7 @@
 use super::children::ChildError;
 use super::restarts::RestartPolicy;
 use gfs_ipc::{IpcRun, RunId, Stage, local};
+use gfs_pipeline::stages::stages_to_run;
 use gfs_pipeline::stages::{StageContext, StageSettings, run_stage};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -38,7 +39,7 @@ impl StageThreads {
             threads: Vec::new(),
             policy,
         };
-        for stage in Stage::ALL {
+        for stage in stages_to_run(&pool.settings.config) {
             let handle = pool.spawn(stage)?;
             pool.threads.push((stage, Some(handle)));
         }

@@ -81,6 +81,8 @@ fn waiting(
         Stage::Points | Stage::Lines | Stage::Planes => source > made(stage),
         Stage::Tracker => features > tracker && !mapper_waits,
         Stage::Mapper => mapper_waits,
+        // The mapper never waits on it for long (a deadline): a dead one is restarted.
+        Stage::Loop => false,
     })
 }
 
@@ -100,25 +102,25 @@ mod tests {
     #[test]
     fn only_a_stage_with_input_waiting_is_waiting() {
         // source 5 frames out, points done, lines at 3, planes done, tracker at 4.
-        let p = progress([5, 5, 3, 5, 4, 0], 0);
+        let p = progress([5, 5, 3, 5, 4, 0, 0], 0);
         let w = waiting(&p, Some(10), Mode::Lockstep);
-        assert_eq!(w, [false, false, true, false, true, false]);
+        assert_eq!(w, [false, false, true, false, true, false, false]);
         // Everything posed: the source is due (lockstep), nobody else.
-        let p = progress([5, 5, 5, 5, 5, 2], 2);
+        let p = progress([5, 5, 5, 5, 5, 2, 2], 2);
         assert_eq!(
             waiting(&p, Some(10), Mode::Lockstep),
-            [true, false, false, false, false, false]
+            [true, false, false, false, false, false, false]
         );
         // The last frame posed: nothing is due.
-        let p = progress([10, 10, 10, 10, 10, 2], 2);
+        let p = progress([10, 10, 10, 10, 10, 2, 2], 2);
         assert_eq!(waiting(&p, Some(10), Mode::Lockstep), [false; Stage::COUNT]);
         // A live camera that pauses is not a hung source.
         assert!(!waiting(&p, None, Mode::Realtime)[Stage::Source.index()]);
         // A keyframe waits for the mapper: the tracker is not blamed.
-        let p = progress([6, 6, 6, 6, 5, 2], 6);
+        let p = progress([6, 6, 6, 6, 5, 2, 0], 6);
         assert_eq!(
             waiting(&p, Some(10), Mode::Lockstep),
-            [false, false, false, false, false, true]
+            [false, false, false, false, false, true, false]
         );
     }
 }
