@@ -103,16 +103,21 @@ fn lockstep_closes_the_loop_as_inline_does() {
         assert!(o.success, "{mode}: {}", o.stderr);
         assert!(o.odometry_ate.is_some(), "{mode}: no loop closed");
         let text = std::fs::read_to_string(out.join("odometry.txt")).unwrap();
-        (o.degraded, text)
+        (o.degraded + o.predicted, text)
     };
-    let (_, inline) = odometry("inline");
+    let (inline_untracked, inline) = odometry("inline");
     assert_eq!(inline.lines().filter(|l| !l.starts_with('#')).count(), 721);
-    let (degraded, lockstep) = odometry("lockstep");
-    // A frame past its deadline on a loaded machine is tracked without a part.
-    if degraded == 0 {
+    let (untracked, lockstep) = odometry("lockstep");
+    // A frame past its deadline on a loaded machine is tracked without a part
+    // (degraded) or not at all (predicted): then the runs part ways at that frame.
+    if untracked == inline_untracked {
         assert!(
             lockstep == inline,
             "lockstep odometry.txt differs from inline's"
+        );
+    } else {
+        println!(
+            "{untracked} frames not tracked in lockstep, {inline_untracked} inline: not compared"
         );
     }
 }

@@ -67,6 +67,7 @@ pub struct Outcome {
     /// ATE of `odometry.txt`, when loop corrections made it differ from the trajectory.
     pub odometry_ate: Option<f64>,
     pub degraded: u64,
+    pub predicted: u64,
     pub trajectory: String,
     pub restarts: BTreeMap<String, u64>,
     pub trajectory_lines: usize,
@@ -119,6 +120,7 @@ pub fn finish(child: Child, out: &Path, run_id: &str) -> Outcome {
         ate: json["ate_rmse_m"].as_f64().unwrap_or(f64::INFINITY),
         odometry_ate: json["odometry_ate_rmse_m"].as_f64(),
         degraded: json["status"]["degraded"].as_u64().unwrap_or(0),
+        predicted: json["status"]["predicted"].as_u64().unwrap_or(0),
         trajectory,
         restarts,
         trajectory_lines,
