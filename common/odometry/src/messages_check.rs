@@ -146,6 +146,11 @@ impl KeyFrameRequest {
         {
             return fail("manhattan axes are not finite".to_owned());
         }
+        if let Some(against) = &self.tracked_against
+            && !finite_pose(&against.reference_correction)
+        {
+            return fail("reference_correction is not finite".to_owned());
+        }
         Ok(())
     }
 }

@@ -53,6 +53,7 @@ fn request() -> KeyFrameRequest {
         manhattan: WorldManhattan::new(true),
         reset: false,
         sightings: Default::default(),
+        tracked_against: None,
     }
 }
 

@@ -92,6 +92,7 @@ fn request(rng: &mut SplitMix64, seq: u64) -> KeyFrameRequest {
         manhattan: WorldManhattan::new(true),
         reset: false,
         sightings: sightings(rng),
+        tracked_against: None,
     }
 }
 

@@ -10,6 +10,7 @@ use crate::mapper::Mapper;
 use crate::matching::ScalePyramid;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::KeyFrameId;
+use nalgebra::Isometry3;
 
 /// Owns the map and runs local mapping on keyframe requests.
 pub struct MappingSession {
@@ -86,7 +87,7 @@ impl MappingSession {
     /// Lockstep and inline runs never stop early, so that they stay reproducible.
     pub fn insert_until(
         &mut self,
-        request: KeyFrameRequest,
+        mut request: KeyFrameRequest,
         stop: &dyn Fn() -> bool,
     ) -> MapUpdateRef<'_> {
         if request.seq > self.last_applied {
@@ -94,6 +95,10 @@ impl MappingSession {
                 self.map.clear_keyframes();
             }
             request.sightings.add_to(&mut self.map);
+            if let Some(new_from_old) = self.correction_since(&request) {
+                let world_from_camera = new_from_old * request.frame.camera_from_world.inverse();
+                request.frame.camera_from_world = world_from_camera.inverse();
+            }
             self.manhattan = request.manhattan;
             let kf = self.mapper.add_keyframe_until(
                 &mut self.map,
@@ -116,6 +121,19 @@ impl MappingSession {
             self.last_keyframe = Some(kf);
         }
         self.update()
+    }
+
+    /// The loop corrections applied since the request's frame was tracked (realtime: the
+    /// tracker had not seen them yet), as its reference keyframe received them; `None`
+    /// when there were none. Without this the frame would go into the corrected map at
+    /// its uncorrected pose, and the tracker would take the correction in as no shift.
+    fn correction_since(&self, request: &KeyFrameRequest) -> Option<Isometry3<f64>> {
+        let against = request.tracked_against.filter(|_| !request.reset)?;
+        if against.corrections == self.map.corrections() {
+            return None;
+        }
+        let now = self.map.keyframe_correction(against.reference)?;
+        Some(now * against.reference_correction.inverse())
     }
 
     /// Applies a loop correction (the loop stage's, between keyframes) to the map.

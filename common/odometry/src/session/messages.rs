@@ -8,6 +8,7 @@ use crate::map::Map;
 use crate::sightings::Sightings;
 use crate::tracker::TrackedFrame;
 use gfs_core::ids::{KeyFrameId, MapPointId};
+use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
 
 /// The tracker asks the mapper to make a frame a keyframe.
@@ -24,6 +25,22 @@ pub struct KeyFrameRequest {
     pub reset: bool,
     /// The landmark sightings since the last request (the mapper culls on them).
     pub sightings: Sightings,
+    /// The loop corrections of the map the frame was tracked against (`None` for a
+    /// frame that starts a map).
+    pub tracked_against: Option<TrackedAgainst>,
+}
+
+/// The loop corrections a tracked frame's pose reflects: in realtime the mapper may have
+/// applied another correction since, and then moves the frame as its reference keyframe
+/// was moved ([`crate::map::Map::keyframe_correction`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrackedAgainst {
+    /// [`Map::corrections`] of the tracker's map.
+    pub corrections: u64,
+    /// The frame's reference keyframe.
+    pub reference: KeyFrameId,
+    /// The loop correction of the reference keyframe in the tracker's map.
+    pub reference_correction: Isometry3<f64>,
 }
 
 /// The mapper's answer to a request: the whole (bounded) map after local mapping.

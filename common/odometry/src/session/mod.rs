@@ -12,6 +12,6 @@ mod tests;
 mod tracking;
 
 pub use mapping::MappingSession;
-pub use messages::{KeyFrameRequest, LoopVerdict, MapUpdate, MapUpdateRef};
+pub use messages::{KeyFrameRequest, LoopVerdict, MapUpdate, MapUpdateRef, TrackedAgainst};
 pub use state::{MapReceipt, RequestLedger, TrackingState};
 pub use tracking::{FramePose, TrackOutput, TrackingCheckpoint, TrackingSession};

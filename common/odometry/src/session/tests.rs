@@ -232,3 +232,62 @@ fn a_local_ba_stopped_at_once_still_makes_the_keyframe() {
     assert_eq!(stopped.map().keyframe_count(), 2);
     assert_eq!(stopped.map().point_count(), full.map().point_count());
 }
+
+#[test]
+fn a_request_tracked_before_a_correction_goes_into_the_map_corrected() {
+    let (mut tracking, mut mapping) = halves();
+    let scene = Scene::new(200, 20);
+    let mut k = 0;
+    while mapping.map().keyframe_count() < 2 {
+        assert!(k < 60, "a second keyframe");
+        step(&mut tracking, &mut mapping, &scene, k);
+        k += 1;
+    }
+    // A loop correction the tracker has not seen yet (realtime): every keyframe 5 cm along x.
+    let shift = nalgebra::Isometry3::translation(0.05, 0.0, 0.0);
+    let map = mapping.map();
+    let ids = map.keyframe_ids();
+    let correction = crate::loop_closing::LoopCorrection {
+        current: ids[ids.len() - 1],
+        candidate: ids[0],
+        inliers: 100,
+        by_appearance: true,
+        poses: ids
+            .iter()
+            .filter_map(|id| Some((*id, shift * map.keyframe(*id)?.world_from_camera())))
+            .collect(),
+        matches: Vec::new(),
+        map_corrections: map.corrections(),
+    };
+    assert!(mapping.apply(&correction));
+    let request = loop {
+        assert!(k < 120, "a keyframe request");
+        let out = tracking
+            .process(scene.features(k, &truth(k)))
+            .expect("features");
+        k += 1;
+        if let Some(request) = out.keyframe {
+            break request;
+        }
+    };
+    let tracked = request.frame.camera_from_world.inverse();
+    let update = mapping.insert(request).to_owned();
+    let kf = update.keyframe.expect("a keyframe");
+    let inserted = update
+        .map
+        .keyframe(kf)
+        .expect("in the map")
+        .world_from_camera();
+    let expected = shift * tracked;
+    assert!((inserted.translation.vector - expected.translation.vector).norm() < 1e-9);
+    assert!(tracking.apply(update));
+    let taken = tracking.map_from_odom().translation.vector - shift.translation.vector;
+    assert!(taken.norm() < 1e-9, "map_from_odom off by {taken}");
+    // The published odometry goes on where it was: the truth, uncorrected.
+    let (next, _) = step(&mut tracking, &mut mapping, &scene, k);
+    let error = (next.world_from_camera * truth(k))
+        .translation
+        .vector
+        .norm();
+    assert!(error < 1e-4, "odometry off by {error} m");
+}

@@ -2,7 +2,7 @@
 //! its copy of the map, recovers when lost, decides keyframes and asks the mapping half
 //! for them, and takes in the maps the mapping half sends back.
 
-use super::messages::{KeyFrameRequest, MapUpdate};
+use super::messages::{KeyFrameRequest, MapUpdate, TrackedAgainst};
 use super::state::{MapReceipt, RequestLedger, TrackingState};
 use crate::config::OdometryConfig;
 use crate::frame::{FeatureError, FrameFeatures};
@@ -405,12 +405,24 @@ impl TrackingSession {
 
     fn request_keyframe(&mut self, frame: &TrackedFrame, reset: bool) -> KeyFrameRequest {
         self.requested_pose = Some(frame.camera_from_world);
+        let tracked_against = self
+            .tracker
+            .reference()
+            .filter(|_| !reset)
+            .and_then(|reference| {
+                Some(TrackedAgainst {
+                    corrections: self.map.corrections(),
+                    reference,
+                    reference_correction: self.map.keyframe_correction(reference)?,
+                })
+            });
         KeyFrameRequest {
             seq: self.requests.open(frame.features.id),
             frame: frame.clone(),
             manhattan: self.manhattan.clone(),
             reset,
             sightings: self.sightings.take(),
+            tracked_against,
         }
     }
 
