@@ -57,6 +57,7 @@
 #![warn(missing_docs)]
 
 mod ba;
+mod block_cholesky;
 mod degeneracy;
 mod lm;
 mod pose;

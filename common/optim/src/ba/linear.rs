@@ -16,11 +16,9 @@ use super::BaError;
 use super::normal::{Linearization, Step};
 use super::problem::BaProblem;
 use super::terms::{BaFlags, Terms};
+use crate::block_cholesky::BlockCholesky;
+use crate::block_cholesky::NotPositiveDefinite;
 use crate::lm::Damping;
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{SymbolicCholesky, factorize_symbolic_cholesky};
-use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
-use faer::{Conj, MatMut, Par, Side};
 use nalgebra::{Matrix3, Matrix6, Matrix6x3, Vector3, Vector6};
 use std::collections::HashMap;
 
@@ -50,9 +48,8 @@ pub(crate) struct ReducedSystem {
     line_obs_slot: Vec<usize>,
     parallel_slot: Vec<usize>,
     perpendicular_slot: Vec<usize>,
-    factorization: Option<Factorization>,
+    factorization: Option<BlockCholesky>,
     slot_values: Vec<Matrix6<f64>>,
-    values: Vec<f64>,
     rhs: Vec<f64>,
     point_inverse: Vec<Matrix3<f64>>,
     plane_inverse: Vec<Matrix3<f64>>,
@@ -60,20 +57,6 @@ pub(crate) struct ReducedSystem {
     scratch_y3: Vec<Matrix6x3<f64>>,
     scratch_y6: Vec<Matrix6<f64>>,
 }
-
-/// The reduced matrix (fixed pattern, values rewritten every solve) and its sparse
-/// Cholesky factorisation with every buffer allocated once per pass.
-struct Factorization {
-    matrix: SparseColMat<usize, f64>,
-    /// For each stored (CSC) value of `matrix`, its index in the block pattern order.
-    pattern_index: Vec<usize>,
-    symbolic: SymbolicCholesky<usize>,
-    factor_values: Vec<f64>,
-    scratch: MemBuffer,
-}
-
-/// Why a damped system could not be solved (the LM step is then rejected).
-pub(crate) struct NotPositiveDefinite;
 
 /// Builds CSR lists of (observation, pose block) per landmark.
 fn build_lists(
@@ -309,56 +292,11 @@ impl ReducedSystem {
             self.perpendicular_slot.push(slot);
         }
 
-        let n = 6 * self.blocks;
-        self.factorization = None;
-        if n == 0 {
-            return Ok(());
-        }
-        let mut pattern = Vec::with_capacity(self.slots.len() * 36);
-        for &(rb, cb) in &self.slots {
-            for c in 0..6 {
-                for r in 0..6 {
-                    if rb != cb || r >= c {
-                        pattern.push(Pair {
-                            row: 6 * rb + r,
-                            col: 6 * cb + c,
-                        });
-                    }
-                }
-            }
-        }
-        let solver_error = |reason: String| BaError::Solver {
-            dimension: n,
-            reason,
-        };
-        let (pattern_csc, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &pattern)
-            .map_err(|e| solver_error(format!("{e:?}")))?;
-        // Build the matrix with each value equal to its pattern index, so that its CSC
-        // value array tells where every pattern entry goes (exact below 2^53 entries).
-        let indices: Vec<f64> = (0..pattern.len()).map(|i| i as f64).collect();
-        let matrix = SparseColMat::new_from_argsort(pattern_csc, &argsort, &indices)
-            .map_err(|e| solver_error(format!("{e:?}")))?;
-        let pattern_index = matrix.val().iter().map(|&v| v as usize).collect();
-        let symbolic = factorize_symbolic_cholesky(
-            matrix.symbolic(),
-            Side::Lower,
-            Default::default(),
-            Default::default(),
-        )
-        .map_err(|e| solver_error(format!("{e:?}")))?;
-        let scratch_req = symbolic
-            .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
-            .or(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
-        let scratch =
-            MemBuffer::try_new(scratch_req).map_err(|e| solver_error(format!("{e:?}")))?;
-        let factor_values = vec![0.0; symbolic.len_val()];
-        self.factorization = Some(Factorization {
-            matrix,
-            pattern_index,
-            symbolic,
-            factor_values,
-            scratch,
-        });
+        self.factorization =
+            BlockCholesky::analyse(self.blocks, &self.slots).map_err(|reason| BaError::Solver {
+                dimension: 6 * self.blocks,
+                reason,
+            })?;
         Ok(())
     }
 
@@ -537,43 +475,8 @@ impl ReducedSystem {
         let Some(f) = &mut self.factorization else {
             return Ok(());
         };
-        self.values.clear();
-        for (value, &(rb, cb)) in self.slot_values.iter().zip(&self.slots) {
-            for c in 0..6 {
-                for r in 0..6 {
-                    if rb != cb || r >= c {
-                        self.values.push(value[(r, c)]);
-                    }
-                }
-            }
-        }
-        for (stored, &index) in f.matrix.val_mut().iter_mut().zip(&f.pattern_index) {
-            *stored = self.values[index];
-        }
-        let factor = f
-            .symbolic
-            .factorize_numeric_llt(
-                &mut f.factor_values,
-                f.matrix.as_ref(),
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut f.scratch),
-                Default::default(),
-            )
-            .map_err(|_| NotPositiveDefinite)?;
-        let n = self.rhs.len();
-        factor.solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(&mut self.rhs, n, 1),
-            Par::Seq,
-            MemStack::new(&mut f.scratch),
-        );
-        if self.rhs.iter().all(|v| v.is_finite()) {
-            Ok(())
-        } else {
-            Err(NotPositiveDefinite)
-        }
+        let values = &self.slot_values;
+        f.factor_and_solve(&self.slots, |slot| values[slot], &mut self.rhs)
     }
 
     fn reduced_step(&self, block: usize) -> Vector6<f64> {

@@ -8,29 +8,14 @@
 //! the same graph; only the values are rewritten.
 
 use super::PoseGraphError;
+use crate::block_cholesky::BlockCholesky;
+use crate::block_cholesky::NotPositiveDefinite;
 use crate::lm::Damping;
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{SymbolicCholesky, factorize_symbolic_cholesky};
-use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
-use faer::{Conj, MatMut, Par, Side};
 use nalgebra::{Matrix6, Vector6};
 use std::collections::HashMap;
 
 /// Marks a fixed node (no block) or an edge with no off-diagonal block.
 pub(crate) const NONE: usize = usize::MAX;
-
-/// The damped system could not be factorised; the LM step is rejected.
-pub(crate) struct NotPositiveDefinite;
-
-/// The sparse matrix with a fixed pattern and its reusable factorisation buffers.
-struct Factorization {
-    matrix: SparseColMat<usize, f64>,
-    /// For each stored (CSC) value of `matrix`, its index in the slot-major order.
-    pattern_index: Vec<usize>,
-    symbolic: SymbolicCholesky<usize>,
-    factor_values: Vec<f64>,
-    scratch: MemBuffer,
-}
 
 /// Normal equations `H d = -g` over the free nodes, with their block structure.
 #[derive(Default)]
@@ -48,8 +33,7 @@ pub(crate) struct NormalSystem {
     pub(crate) g: Vec<f64>,
     /// The step, 6 per block, after [`Self::solve`].
     pub(crate) step: Vec<f64>,
-    values: Vec<f64>,
-    factorization: Option<Factorization>,
+    factorization: Option<BlockCholesky>,
 }
 
 impl NormalSystem {
@@ -99,56 +83,12 @@ impl NormalSystem {
         self.g.resize(6 * blocks, 0.0);
         self.step.clear();
         self.step.resize(6 * blocks, 0.0);
-        self.factorization = None;
-        let n = 6 * blocks;
-        if n == 0 {
-            return Ok(());
-        }
-        let mut pattern = Vec::with_capacity(self.slots.len() * 36);
-        for &(rb, cb) in &self.slots {
-            for c in 0..6 {
-                for r in 0..6 {
-                    if rb != cb || r >= c {
-                        pattern.push(Pair {
-                            row: 6 * rb + r,
-                            col: 6 * cb + c,
-                        });
-                    }
-                }
+        self.factorization = BlockCholesky::analyse(blocks, &self.slots).map_err(|reason| {
+            PoseGraphError::Solver {
+                dimension: 6 * blocks,
+                reason,
             }
-        }
-        let solver_error = |reason: String| PoseGraphError::Solver {
-            dimension: n,
-            reason,
-        };
-        let (pattern_csc, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &pattern)
-            .map_err(|e| solver_error(format!("{e:?}")))?;
-        // Each value equal to its pattern index: the CSC value array then tells where
-        // every pattern entry is stored (exact below 2^53 entries), as in local BA.
-        let indices: Vec<f64> = (0..pattern.len()).map(|i| i as f64).collect();
-        let matrix = SparseColMat::new_from_argsort(pattern_csc, &argsort, &indices)
-            .map_err(|e| solver_error(format!("{e:?}")))?;
-        let pattern_index = matrix.val().iter().map(|&v| v as usize).collect();
-        let symbolic = factorize_symbolic_cholesky(
-            matrix.symbolic(),
-            Side::Lower,
-            Default::default(),
-            Default::default(),
-        )
-        .map_err(|e| solver_error(format!("{e:?}")))?;
-        let scratch_req = symbolic
-            .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
-            .or(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
-        let scratch =
-            MemBuffer::try_new(scratch_req).map_err(|e| solver_error(format!("{e:?}")))?;
-        let factor_values = vec![0.0; symbolic.len_val()];
-        self.factorization = Some(Factorization {
-            matrix,
-            pattern_index,
-            symbolic,
-            factor_values,
-            scratch,
-        });
+        })?;
         Ok(())
     }
 
@@ -172,51 +112,20 @@ impl NormalSystem {
         let Some(f) = &mut self.factorization else {
             return Ok(0.0);
         };
-        self.values.clear();
-        for (value, &(rb, cb)) in self.h.iter().zip(&self.slots) {
-            for c in 0..6 {
-                for r in 0..6 {
-                    if rb != cb {
-                        self.values.push(value[(r, c)]);
-                    } else if r >= c {
-                        let damp = if r == c {
-                            damping.diagonal_term(value[(r, c)])
-                        } else {
-                            0.0
-                        };
-                        self.values.push(value[(r, c)] + damp);
-                    }
-                }
-            }
-        }
-        for (stored, &index) in f.matrix.val_mut().iter_mut().zip(&f.pattern_index) {
-            *stored = self.values[index];
-        }
-        let factor = f
-            .symbolic
-            .factorize_numeric_llt(
-                &mut f.factor_values,
-                f.matrix.as_ref(),
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut f.scratch),
-                Default::default(),
-            )
-            .map_err(|_| NotPositiveDefinite)?;
         for (s, g) in self.step.iter_mut().zip(&self.g) {
             *s = -g;
         }
-        let n = self.step.len();
-        factor.solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(&mut self.step, n, 1),
-            Par::Seq,
-            MemStack::new(&mut f.scratch),
-        );
-        if !self.step.iter().all(|v| v.is_finite()) {
-            return Err(NotPositiveDefinite);
-        }
+        let (h, slots) = (&self.h, &self.slots);
+        let damped = |slot: usize| {
+            let mut value = h[slot];
+            if slots[slot].0 == slots[slot].1 {
+                for k in 0..6 {
+                    value[(k, k)] += damping.diagonal_term(h[slot][(k, k)]);
+                }
+            }
+            value
+        };
+        f.factor_and_solve(slots, damped, &mut self.step)?;
         let mut predicted = 0.0;
         for b in 0..self.blocks() {
             let h = &self.h[b];
