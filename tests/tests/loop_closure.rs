@@ -77,7 +77,10 @@ impl Run {
         if before != *self.odometry.map_from_odom() {
             self.corrected_after.push(i);
         }
-        self.finals.record(&self.odometry, &pose);
+        self.finals.record(
+            self.odometry.anchor(&pose),
+            self.odometry.map_from_odom() * pose.world_from_camera,
+        );
         self.map_poses
             .push(self.odometry.map_from_odom() * pose.world_from_camera);
         self.published.push(pose);
@@ -137,7 +140,7 @@ fn two_laps_of_the_room_close_a_loop_halve_the_ate_and_keep_the_odometry_continu
     let loops = on.odometry.loops();
     assert!(!loops.is_empty(), "no loop closed");
     assert!(off.odometry.loops().is_empty());
-    let finals = on.finals.finish(&on.odometry, &on.published);
+    let finals = on.finals.finish(on.odometry.map(), &on.published);
     let ate_on = ate(
         &truth,
         finals.iter().map(|p| (p.timestamp, p.world_from_camera)),

@@ -90,10 +90,12 @@ fn loop_killed_three_times() {
 
 /// The loop stage searches the map the mapper sends and the lockstep mapper waits for
 /// its verdict, so the lockstep pipeline closes the loop where the in-process odometry
-/// does: the published poses (odometry.txt) are the same bytes.
+/// does: the published poses (odometry.txt) are the same bytes, and so is the final
+/// trajectory (trajectory.txt: the frames before the loop moved with their keyframes,
+/// from the mapper's last saved map).
 #[test]
 fn lockstep_closes_the_loop_as_inline_does() {
-    let odometry = |mode: &str| {
+    let outputs = |mode: &str| {
         let (id, out) = (
             run_id(&format!("lc{}", &mode[..3])),
             out_dir(&format!("loop_{mode}")),
@@ -102,18 +104,28 @@ fn lockstep_closes_the_loop_as_inline_does() {
         let o = finish(child, &out, &id);
         assert!(o.success, "{mode}: {}", o.stderr);
         assert!(o.odometry_ate.is_some(), "{mode}: no loop closed");
-        let text = std::fs::read_to_string(out.join("odometry.txt")).unwrap();
-        (o.degraded + o.predicted, text)
+        let read = |name: &str| std::fs::read_to_string(out.join(name)).unwrap();
+        (
+            o.degraded + o.predicted,
+            read("odometry.txt"),
+            read("trajectory.txt"),
+            o.ate,
+        )
     };
-    let (inline_untracked, inline) = odometry("inline");
+    let (inline_untracked, inline, inline_final, inline_ate) = outputs("inline");
     assert_eq!(inline.lines().filter(|l| !l.starts_with('#')).count(), 721);
-    let (untracked, lockstep) = odometry("lockstep");
+    let (untracked, lockstep, lockstep_final, lockstep_ate) = outputs("lockstep");
+    println!("final trajectory ATE: inline {inline_ate:.4} m, lockstep {lockstep_ate:.4} m");
     // A frame past its deadline on a loaded machine is tracked without a part
     // (degraded) or not at all (predicted): then the runs part ways at that frame.
     if untracked == inline_untracked {
         assert!(
             lockstep == inline,
             "lockstep odometry.txt differs from inline's"
+        );
+        assert!(
+            lockstep_final == inline_final,
+            "lockstep trajectory.txt differs from inline's"
         );
     } else {
         println!(

@@ -69,7 +69,7 @@ pub use depth_alignment::{
     DepthAlignmentConfig, DepthAssociator, kinect_depth_sigma, self_information,
 };
 pub use depth_grid::DepthGrid;
-pub use final_trajectory::FinalTrajectory;
+pub use final_trajectory::{FinalTrajectory, FrameAnchor};
 pub use frame::{FeatureError, FrameFeatures, FrameSurfaces};
 pub use frontend::{DEPTH_GRID_STEP, Frontend, FrontendError, FrontendTimings, StructureExtractor};
 pub use keyframe_policy::{KeyframeContext, needs_keyframe};
@@ -77,7 +77,7 @@ pub use manhattan::WorldManhattan;
 pub use mapper::Mapper;
 pub use messages_check::MessageError;
 pub use motion::MotionModel;
-pub use odometry::{FrameAnchor, Odometry, OdometryTimings};
+pub use odometry::{Odometry, OdometryTimings};
 pub use plane_association::{PlaneAssociator, PlaneTrackingConfig};
 pub use pose_solver::Inliers;
 pub use relocalise::{Relocalisation, relocalise};

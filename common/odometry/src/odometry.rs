@@ -3,13 +3,14 @@
 //! the `tracker` and `mapper` services, so this path and the lockstep pipeline agree.
 
 use crate::config::OdometryConfig;
+use crate::final_trajectory::FrameAnchor;
 use crate::frame::{FeatureError, FrameFeatures};
 use crate::loop_closing::LoopClosure;
 use crate::manhattan::WorldManhattan;
 use crate::map::Map;
 use crate::session::{FramePose, MappingSession, TrackingSession};
 use gfs_core::camera::PinholeCamera;
-use gfs_core::ids::{FrameId, KeyFrameId};
+use gfs_core::ids::FrameId;
 use gfs_lines::grid::GridConfig;
 use nalgebra::{Isometry3, Rotation3};
 use std::time::{Duration, Instant};
@@ -21,24 +22,6 @@ pub struct OdometryTimings {
     pub tracking: Duration,
     /// Local mapping, when the frame became a keyframe.
     pub mapping: Option<Duration>,
-}
-
-/// A frame tied to its reference keyframe, so that the loops closed after it was
-/// tracked correct it as they correct that keyframe.
-///
-/// ORB-SLAM2 saves `T_w_kf(final) * T_kf_c`; that also carries the local-BA refinement
-/// of the keyframe made after the frame was tracked, which measured worse on TUM
-/// fr1_rpy (ATE 0.0122 against 0.0117 m live) with 7-Scenes the same (0.0214 against
-/// 0.0215 m). Here only the loop corrections are carried: with no loop the final pose
-/// is the live one.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FrameAnchor {
-    /// The reference keyframe.
-    pub keyframe: KeyFrameId,
-    /// Its loop correction when the frame was tracked.
-    pub correction: Isometry3<f64>,
-    /// The frame's map pose (`world_from_camera`) when it was tracked.
-    pub world_from_camera: Isometry3<f64>,
 }
 
 /// RGB-D visual odometry over point, line and Manhattan features.
@@ -84,29 +67,7 @@ impl Odometry {
     /// The anchor of the frame just processed (whose published pose is `pose`), or
     /// `None` before the first keyframe.
     pub fn anchor(&self, pose: &FramePose) -> Option<FrameAnchor> {
-        let keyframe = self.tracking.reference()?;
-        let correction = self.tracking.map().keyframe_correction(keyframe)?;
-        let world_from_camera = if self.map_from_odom() == &Isometry3::identity() {
-            pose.world_from_camera
-        } else {
-            self.map_from_odom() * pose.world_from_camera
-        };
-        Some(FrameAnchor {
-            keyframe,
-            correction,
-            world_from_camera,
-        })
-    }
-
-    /// The current best `world_from_camera` of an anchored frame: its map pose with the
-    /// loop corrections its keyframe received since.
-    pub fn final_pose(&self, anchor: &FrameAnchor) -> Isometry3<f64> {
-        match self.map().keyframe_correction(anchor.keyframe) {
-            Some(now) if now != anchor.correction => {
-                now * anchor.correction.inverse() * anchor.world_from_camera
-            }
-            _ => anchor.world_from_camera,
-        }
+        self.tracking.anchor(pose)
     }
 
     /// Timings of the last processed frame.

@@ -2,10 +2,10 @@
 //! travel as slices in shared memory, read in place by the subscribers. Each has a
 //! stable iceoryx2 type name that both ends agree on.
 
-use gfs_core::ids::FrameId;
+use gfs_core::ids::{FrameId, KeyFrameId};
 use gfs_ipc::ZeroCopySend;
 use gfs_lines::{DetectedLine, Line3, Segment};
-use gfs_odometry::{FramePose, TrackingStatus};
+use gfs_odometry::{FrameAnchor, FramePose, TrackingStatus};
 use gfs_planes::ManhattanAxes;
 use gfs_points::{Descriptor, KeyPoint};
 use nalgebra::{Isometry3, Matrix3, Matrix6, Quaternion, Rotation3, Translation3, UnitQuaternion};
@@ -191,6 +191,13 @@ pub struct WirePose {
     /// x y z then quaternion x y z w; all zero for the identity (no loop closed). The
     /// pose above is the continuous `odom` pose.
     pub map_from_odom: [f64; 7],
+    /// The frame's reference keyframe id plus one; 0 before the first keyframe. With
+    /// `anchor_correction`, what the final trajectory needs to give the frame the loop
+    /// corrections that keyframe receives later ([`FrameAnchor`]).
+    pub anchor_keyframe: u64,
+    /// The reference keyframe's loop correction when the frame was tracked, laid out
+    /// as `map_from_odom` (all zero for the identity).
+    pub anchor_correction: [f64; 7],
 }
 
 impl WirePose {
@@ -214,28 +221,40 @@ impl WirePose {
             keyframe: u32::from(keyframe),
             covariance: [0.0; 21],
             map_from_odom: [0.0; 7],
+            anchor_keyframe: 0,
+            anchor_correction: [0.0; 7],
         }
+    }
+
+    /// The same pose tied to its reference keyframe.
+    pub fn with_anchor(mut self, anchor: Option<&FrameAnchor>) -> Self {
+        if let Some(a) = anchor {
+            self.anchor_keyframe = a.keyframe.0.saturating_add(1);
+            self.anchor_correction = isometry_fields(&a.correction);
+        }
+        self
+    }
+
+    /// The frame's anchor, `None` before the first keyframe or when a field is not
+    /// valid; `world_from_camera` is its map pose (`map_from_odom * pose`).
+    pub fn anchor(&self, world_from_camera: Isometry3<f64>) -> Option<FrameAnchor> {
+        let keyframe = KeyFrameId(self.anchor_keyframe.checked_sub(1)?);
+        Some(FrameAnchor {
+            keyframe,
+            correction: isometry_from_fields(&self.anchor_correction)?,
+            world_from_camera,
+        })
     }
 
     /// The same pose with the tracker's loop corrections (`map_from_odom`).
     pub fn with_map_from_odom(mut self, map_from_odom: &Isometry3<f64>) -> Self {
-        if *map_from_odom != Isometry3::identity() {
-            let t = map_from_odom.translation.vector;
-            let q = map_from_odom.rotation.coords;
-            self.map_from_odom = [t.x, t.y, t.z, q.x, q.y, q.z, q.w];
-        }
+        self.map_from_odom = isometry_fields(map_from_odom);
         self
     }
 
     /// `map_from_odom`: the identity when none was sent or the field is not valid.
     pub fn map_from_odom(&self) -> Isometry3<f64> {
-        let [x, y, z, qx, qy, qz, qw] = self.map_from_odom;
-        match unit_quaternion(&[qx, qy, qz, qw]) {
-            Some(rotation) if [x, y, z].iter().all(|v| v.is_finite()) => {
-                Isometry3::from_parts(Translation3::new(x, y, z), rotation)
-            }
-            _ => Isometry3::identity(),
-        }
+        isometry_from_fields(&self.map_from_odom).unwrap_or_else(Isometry3::identity)
     }
 
     /// The same pose with the covariance of its optimisation.
@@ -291,6 +310,31 @@ impl WirePose {
     pub fn predicted_rotation(&self) -> Option<Rotation3<f64>> {
         unit_quaternion(&self.predicted_rotation).map(|q| q.to_rotation_matrix())
     }
+}
+
+/// An isometry as x y z qx qy qz qw; all zero for the identity (a zeroed field reads as
+/// no correction).
+fn isometry_fields(m: &Isometry3<f64>) -> [f64; 7] {
+    if *m == Isometry3::identity() {
+        return [0.0; 7];
+    }
+    let t = m.translation.vector;
+    let q = m.rotation.coords;
+    [t.x, t.y, t.z, q.x, q.y, q.z, q.w]
+}
+
+/// The isometry of [`isometry_fields`]; `None` when a field is not finite or the
+/// quaternion not of unit norm.
+fn isometry_from_fields(fields: &[f64; 7]) -> Option<Isometry3<f64>> {
+    if fields.iter().all(|v| *v == 0.0) {
+        return Some(Isometry3::identity());
+    }
+    let [x, y, z, qx, qy, qz, qw] = *fields;
+    let rotation = unit_quaternion(&[qx, qy, qz, qw])?;
+    [x, y, z]
+        .iter()
+        .all(|v| v.is_finite())
+        .then(|| Isometry3::from_parts(Translation3::new(x, y, z), rotation))
 }
 
 /// A unit quaternion from (x, y, z, w) when finite and of unit norm; taken as sent, bit
@@ -354,7 +398,7 @@ mod tests {
         assert_eq!(WirePose::new(&pose, None, false).predicted_rotation(), None);
         assert_eq!(w.covariance(), None);
         // deploy/iceoryx2.toml documents the layout for other languages.
-        assert_eq!(std::mem::size_of::<WirePose>(), 336);
+        assert_eq!(std::mem::size_of::<WirePose>(), 400);
         assert_eq!(w.map_from_odom(), Isometry3::identity());
         let m = Isometry3::new(
             nalgebra::Vector3::new(0.02, 0.0, -0.01),
@@ -366,6 +410,21 @@ mod tests {
                 .abs()
                 .max()
                 < 1e-12
+        );
+        assert_eq!(w.anchor(m), None, "no keyframe yet");
+        let anchor = FrameAnchor {
+            keyframe: KeyFrameId(0),
+            correction: m,
+            world_from_camera: pose.world_from_camera,
+        };
+        let anchored = w.with_anchor(Some(&anchor));
+        assert_eq!(anchored.anchor(pose.world_from_camera), Some(anchor));
+        let mut broken = anchored;
+        broken.anchor_correction[6] = 3.0;
+        assert_eq!(
+            broken.anchor(pose.world_from_camera),
+            None,
+            "not a unit quaternion"
         );
         let c = Matrix6::from_fn(|r, k| 1.0 / (1.0 + r as f64 + k as f64));
         assert_eq!(w.with_covariance(Some(&c)).covariance(), Some(c));

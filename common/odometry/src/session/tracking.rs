@@ -5,6 +5,7 @@
 use super::messages::{KeyFrameRequest, MapUpdate, TrackedAgainst};
 use super::state::{MapReceipt, RequestLedger, TrackingState};
 use crate::config::OdometryConfig;
+use crate::final_trajectory::FrameAnchor;
 use crate::frame::{FeatureError, FrameFeatures};
 use crate::keyframe_policy::{KeyframeContext, needs_keyframe};
 use crate::manhattan::WorldManhattan;
@@ -143,6 +144,25 @@ impl TrackingSession {
     /// The reference keyframe of the last frame.
     pub fn reference(&self) -> Option<KeyFrameId> {
         self.tracker.reference()
+    }
+
+    /// The anchor of the frame just processed (whose published pose is `pose`): its
+    /// reference keyframe, that keyframe's loop correction and the frame's map pose;
+    /// `None` before the first keyframe.
+    pub fn anchor(&self, pose: &FramePose) -> Option<FrameAnchor> {
+        let keyframe = self.reference()?;
+        let correction = self.map.keyframe_correction(keyframe)?;
+        Some(FrameAnchor {
+            keyframe,
+            correction,
+            // Composed only once a loop closed: the map pose is then bit for bit the
+            // published one.
+            world_from_camera: if self.map_from_odom == Isometry3::identity() {
+                pose.world_from_camera
+            } else {
+                self.map_from_odom * pose.world_from_camera
+            },
+        })
     }
 
     /// The map the tracker tracks against.

@@ -13,6 +13,7 @@ use gfs_ipc::{
     MAX_VARIABLE_MESSAGE_BYTES, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
     encode_message, topics,
 };
+use gfs_odometry::map::Map;
 use gfs_odometry::session::{KeyFrameRequest, LoopVerdict, MapUpdate, MappingSession};
 use std::time::{Duration, Instant};
 
@@ -36,6 +37,18 @@ pub fn saved_maps(state: &StateDir) -> Result<Vec<MapUpdate>, StateError> {
     }
     maps.sort_by_key(|m| std::cmp::Reverse(m.seq));
     Ok(maps)
+}
+
+/// The mapper's map as it last saved it (every keyframe and the retired ones, with
+/// their loop corrections): what the final trajectory of a pipeline run is taken from.
+///
+/// # Errors
+/// [`StateError`] when a checkpoint exists but cannot be read.
+pub fn last_saved_map(state: &StateDir) -> Result<Option<Map>, StateError> {
+    Ok(saved_maps(state)?
+        .into_iter()
+        .next()
+        .map(|update| update.map))
 }
 
 /// A map message is sized for this many bytes at first (grows as needed).

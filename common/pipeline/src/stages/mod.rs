@@ -18,7 +18,7 @@ mod tracker;
 pub use context::{StageContext, StageError, StageSettings};
 pub use lines::run as run_lines;
 pub use loop_closing::run as run_loop;
-pub use mapper::run as run_mapper;
+pub use mapper::{last_saved_map, run as run_mapper};
 pub use planes::run as run_planes;
 pub use points::run as run_points;
 pub use source::run as run_source;

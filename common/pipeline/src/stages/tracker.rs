@@ -145,7 +145,8 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         let predicted = session.predicted_quaternion();
         let wire = WirePose::new(&pose, predicted.as_ref(), keyframe)
             .with_covariance(covariance.as_ref())
-            .with_map_from_odom(session.map_from_odom());
+            .with_map_from_odom(session.map_from_odom())
+            .with_anchor(session.anchor(&pose).as_ref());
         ports.poses.publish_slice(&header, &[wire])?;
         ctx.made(id.0);
         state.write(CHECKPOINT, &session.checkpoint(), &mut scratch)?;

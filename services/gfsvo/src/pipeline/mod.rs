@@ -9,15 +9,17 @@ pub mod signals;
 mod threads;
 mod watchdog;
 
-pub use recorder::{Corrections, Covariances, Recorder, complete_trajectory, map_poses};
+pub use recorder::{Anchors, Corrections, Covariances, Recorder, complete_trajectory, final_poses};
 
 use crate::CliResult;
 use children::StageProcesses;
 use gfs_ipc::profile::Profile;
 use gfs_ipc::{IpcRun, RunId, Service, Stage, ipc, local};
 use gfs_odometry::FramePose;
+use gfs_odometry::map::Map;
 use gfs_pipeline::progress::ProgressBoard;
-use gfs_pipeline::stages::{StageSettings, stages_to_run};
+use gfs_pipeline::stages::{StageSettings, last_saved_map, stages_to_run};
+use gfs_pipeline::state::StateDir;
 use restarts::RestartPolicy;
 use std::collections::BTreeMap;
 use std::ffi::OsString;
@@ -71,6 +73,10 @@ pub struct PipelineOutcome {
     pub covariances: Covariances,
     /// The tracker's loop corrections (`map_from_odom`) by frame id, once a loop closed.
     pub corrections: Corrections,
+    /// Each frame's reference keyframe when it was tracked, by frame id.
+    pub anchors: Anchors,
+    /// The mapper's last saved map (`None` without a state folder or a keyframe).
+    pub final_map: Option<Map>,
     /// Stage stamps of every frame.
     pub profile: Profile,
     /// Keyframes made.
@@ -114,7 +120,7 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
         pool.stop();
         drop(node);
         let totals = Stage::ALL.map(|s| (s.name(), pool.restarts().total(s)));
-        finish(run.finish(), result, totals)
+        finish(options, run.finish(), result, totals)
     } else {
         let node = run.node::<ipc::Service>("recorder")?;
         let recorder = Recorder::new(&run, &node, options.settings.mode, label)?;
@@ -164,18 +170,22 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
             run.leftovers()
         });
         let totals = Stage::ALL.map(|s| (s.name(), pool.restarts().total(s)));
-        finish(leftovers, result, totals)
+        finish(options, leftovers, result, totals)
     }
 }
 
-type Supervised = CliResult<(
-    Profile,
-    BTreeMap<u64, FramePose>,
-    Covariances,
-    Corrections,
-    usize,
-    bool,
-)>;
+/// What the recorder collected over a supervised run.
+struct Recorded {
+    profile: Profile,
+    received: BTreeMap<u64, FramePose>,
+    covariances: Covariances,
+    corrections: Corrections,
+    anchors: Anchors,
+    keyframes: usize,
+    interrupted: bool,
+}
+
+type Supervised = CliResult<Recorded>;
 
 /// Records poses until the last frame has one (or a signal came), restarting dead
 /// stages on the way.
@@ -214,18 +224,21 @@ fn supervise<S: Service>(
     bar.finish_and_clear();
     let keyframes = recorder.keyframes();
     let corrections = recorder.take_corrections();
+    let anchors = recorder.take_anchors();
     let (profile, received, covariances) = recorder.into_profile();
-    Ok((
+    Ok(Recorded {
         profile,
         received,
         covariances,
         corrections,
+        anchors,
         keyframes,
         interrupted,
-    ))
+    })
 }
 
 fn finish(
+    options: &PipelineOptions,
     leftovers: Vec<PathBuf>,
     result: Supervised,
     totals: [(&'static str, u32); Stage::COUNT],
@@ -233,15 +246,22 @@ fn finish(
     if !leftovers.is_empty() {
         tracing::warn!("files of the run left behind: {leftovers:?}");
     }
-    let (profile, received, covariances, corrections, keyframes, interrupted) = result?;
+    let recorded = result?;
+    let final_map = last_saved_map(&StateDir::new(options.settings.state_dir.clone()))
+        .unwrap_or_else(|e| {
+            tracing::warn!("the final trajectory has no later loop corrections: {e}");
+            None
+        });
     Ok(PipelineOutcome {
-        received,
-        covariances,
-        corrections,
-        profile,
-        keyframes,
+        received: recorded.received,
+        covariances: recorded.covariances,
+        corrections: recorded.corrections,
+        anchors: recorded.anchors,
+        final_map,
+        profile: recorded.profile,
+        keyframes: recorded.keyframes,
         restarts: totals.into_iter().collect(),
-        interrupted,
+        interrupted: recorded.interrupted,
         leftovers,
     })
 }

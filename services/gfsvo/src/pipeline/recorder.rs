@@ -4,7 +4,8 @@
 use gfs_core::ids::FrameId;
 use gfs_ipc::profile::Profile;
 use gfs_ipc::{IpcError, IpcRun, Mode, Service, Stage, TopicSubscriber, topics};
-use gfs_odometry::{FramePose, TrackingStatus};
+use gfs_odometry::map::Map;
+use gfs_odometry::{FrameAnchor, FramePose, TrackingStatus};
 use gfs_pipeline::wire::WirePose;
 use iceoryx2::node::Node;
 use nalgebra::Isometry3;
@@ -21,9 +22,14 @@ pub struct Recorder<S: Service> {
     received: BTreeMap<u64, FramePose>,
     covariances: Covariances,
     corrections: Corrections,
+    anchors: Anchors,
     keyframes: usize,
     profile: Profile,
 }
+
+/// Each frame's reference keyframe and its map pose when tracked, by frame id (frames
+/// before the first keyframe have none).
+pub type Anchors = BTreeMap<u64, FrameAnchor>;
 
 /// The tracker's `map_from_odom` by frame id, for the frames published after a loop
 /// closed (earlier frames: the identity).
@@ -46,6 +52,7 @@ impl<S: Service> Recorder<S> {
             received: BTreeMap::new(),
             covariances: BTreeMap::new(),
             corrections: BTreeMap::new(),
+            anchors: BTreeMap::new(),
             keyframes: 0,
             profile: Profile::new(label),
         })
@@ -77,8 +84,14 @@ impl<S: Service> Recorder<S> {
                     self.covariances.insert(pose.id.0, c);
                 }
                 let map_from_odom = wire.map_from_odom();
-                if map_from_odom != nalgebra::Isometry3::identity() {
+                let in_map = if map_from_odom == Isometry3::identity() {
+                    pose.world_from_camera
+                } else {
                     self.corrections.insert(pose.id.0, map_from_odom);
+                    map_from_odom * pose.world_from_camera
+                };
+                if let Some(anchor) = wire.anchor(in_map) {
+                    self.anchors.insert(pose.id.0, anchor);
                 }
                 self.keyframes += wire.keyframe as usize;
                 self.profile.record(&header, pose.status.as_str());
@@ -135,19 +148,40 @@ impl<S: Service> Recorder<S> {
     pub fn take_corrections(&mut self) -> Corrections {
         std::mem::take(&mut self.corrections)
     }
+
+    /// The frames' anchors received (taken out).
+    pub fn take_anchors(&mut self) -> Anchors {
+        std::mem::take(&mut self.anchors)
+    }
 }
 
-/// The poses in the map frame as the tracker knew it live: each (odom) pose composed with
-/// the latest `map_from_odom` published at or before its frame.
-pub fn map_poses(poses: &[FramePose], corrections: &Corrections) -> Vec<FramePose> {
-    poses
+/// The final best estimate of the frames received: a frame tied to a keyframe gets the
+/// loop corrections that keyframe received after it, as far as `map` (the mapper's last
+/// saved map) knows them; any other frame its map pose as published
+/// (`map_from_odom * pose`).
+pub fn final_poses(
+    received: &BTreeMap<u64, FramePose>,
+    corrections: &Corrections,
+    anchors: &Anchors,
+    map: Option<&Map>,
+) -> BTreeMap<u64, FramePose> {
+    received
         .iter()
-        .map(|pose| match corrections.range(..=pose.id.0).next_back() {
-            Some((_, map_from_odom)) => FramePose {
-                world_from_camera: map_from_odom * pose.world_from_camera,
-                ..*pose
-            },
-            None => *pose,
+        .map(|(&id, pose)| {
+            let world_from_camera = match (anchors.get(&id), map) {
+                (Some(anchor), Some(map)) => anchor.final_pose(map),
+                _ => match corrections.get(&id) {
+                    Some(map_from_odom) => map_from_odom * pose.world_from_camera,
+                    None => pose.world_from_camera,
+                },
+            };
+            (
+                id,
+                FramePose {
+                    world_from_camera,
+                    ..*pose
+                },
+            )
         })
         .collect()
 }

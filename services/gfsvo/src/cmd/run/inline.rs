@@ -114,12 +114,15 @@ pub fn run(
             odometry.process(features)?
         };
         times.record(&frontend, &odometry);
-        finals.record(&odometry, &pose);
+        finals.record(
+            odometry.anchor(&pose),
+            odometry.map_from_odom() * pose.world_from_camera,
+        );
         poses.push(pose);
         progress.inc(1);
     }
     Ok(InlineOutcome {
-        poses: finals.finish(&odometry, &poses),
+        poses: finals.finish(odometry.map(), &poses),
         odometry: poses,
         loops: odometry.loops().to_vec(),
         tracking_blocks: times.tracking_blocks(),

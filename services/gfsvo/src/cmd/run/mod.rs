@@ -193,16 +193,22 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             return Err(interrupted(poses.len(), total, &args.out));
         }
         let poses = pipeline::complete_trajectory(&outcome.received, timestamps);
-        let in_map = pipeline::map_poses(&poses, &outcome.corrections);
+        let finals = pipeline::final_poses(
+            &outcome.received,
+            &outcome.corrections,
+            &outcome.anchors,
+            outcome.final_map.as_ref(),
+        );
+        let final_trajectory = pipeline::complete_trajectory(&finals, timestamps);
         let timings = Timings::Pipeline(outcome.profile.summary());
         if !outcome.leftovers.is_empty() {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
         }
         let processed = outcome.received.len();
-        // The recorder sees the poses as published: the continuous odometry and the
-        // loop corrections known at each frame, not the later ones.
+        // trajectory.txt: each frame with the loop corrections its keyframe received
+        // later (the mapper's last saved map); odometry.txt: the poses as published.
         (
-            in_map,
+            final_trajectory,
             poses,
             None,
             processed,
