@@ -21,6 +21,9 @@ pub struct OdometryTimings {
     pub tracking: Duration,
     /// Local mapping, when the frame became a keyframe.
     pub mapping: Option<Duration>,
+    /// Relocalisation against the whole map in the mapping half (bag-of-words query and
+    /// verification), when the frame was lost.
+    pub relocalisation: Option<Duration>,
 }
 
 /// A frame tied to its reference keyframe, so that the loops closed after it was
@@ -143,6 +146,7 @@ impl Odometry {
         let start = Instant::now();
         let output = self.tracking.process(features)?;
         let tracked = start.elapsed();
+        let mut pose = output.pose;
         let mut mapping = None;
         if let Some(request) = output.keyframe {
             let mapping_start = Instant::now();
@@ -150,11 +154,23 @@ impl Odometry {
             self.tracking.apply(update);
             mapping = Some(mapping_start.elapsed());
         }
+        let mut relocalisation = None;
+        if let Some(request) = output.relocalisation {
+            let relocalisation_start = Instant::now();
+            let answer = self.mapping.relocalise(&request);
+            relocalisation = Some(relocalisation_start.elapsed());
+            let update = answer.to_owned();
+            self.tracking.apply(update);
+            if let Some(found) = self.tracking.take_relocalised() {
+                pose = found;
+            }
+        }
         self.timings = OdometryTimings {
             tracking: tracked,
             mapping,
+            relocalisation,
         };
-        Ok(output.pose)
+        Ok(pose)
     }
 }
 

@@ -6,6 +6,7 @@
 //! the current keyframe's in the frame of the candidate's side of the loop: where the
 //! drift-free map says the camera is.
 
+use crate::frame::FrameFeatures;
 use crate::map::Map;
 use crate::matching::match_descriptors;
 use crate::pose_solver::PoseSolver;
@@ -64,13 +65,30 @@ impl Verifier {
         seed: u64,
     ) -> Option<LoopMatch> {
         let keyframe = map.keyframe(current)?;
+        let mut seen: Vec<MapPointId> = keyframe.point_ids.iter().flatten().copied().collect();
+        seen.sort_unstable();
+        self.verify_frame(map, &keyframe.features, &seen, candidate, min_inliers, seed)
+    }
+
+    /// Verifies that a frame of `features` sees the place of `candidate` (the map
+    /// points of it and its connected keyframes, but those in `seen`, sorted): the
+    /// frame's pose there, or `None` when fewer than `min_inliers` matches survive.
+    /// A keyframe of the map checks a loop ([`Self::verify`]); a lost frame is
+    /// relocalised ([`crate::map_relocalisation`]).
+    pub fn verify_frame(
+        &mut self,
+        map: &Map,
+        features: &FrameFeatures,
+        seen: &[MapPointId],
+        candidate: KeyFrameId,
+        min_inliers: usize,
+        seed: u64,
+    ) -> Option<LoopMatch> {
         // Ids and descriptors side by side, so that a match's index names its point.
-        let (ids, descriptors): (Vec<MapPointId>, Vec<_>) =
-            loop_side_points(map, current, candidate)
-                .into_iter()
-                .filter_map(|id| map.point(id).map(|p| (id, p.descriptor)))
-                .unzip();
-        let features = &keyframe.features;
+        let (ids, descriptors): (Vec<MapPointId>, Vec<_>) = place_points(map, candidate, seen)
+            .into_iter()
+            .filter_map(|id| map.point(id).map(|p| (id, p.descriptor)))
+            .unzip();
         match_descriptors(
             &features.point_descriptors,
             &descriptors,
@@ -123,20 +141,10 @@ impl Verifier {
     }
 }
 
-/// The map points of `candidate` and its connected keyframes that `current` does not
-/// observe already, in increasing id order.
-fn loop_side_points(map: &Map, current: KeyFrameId, candidate: KeyFrameId) -> Vec<MapPointId> {
-    let mut ids: Vec<MapPointId> = std::iter::once(candidate)
-        .chain(map.connected(candidate).into_iter().map(|(k, _)| k))
-        .filter_map(|k| map.keyframe(k))
-        .flat_map(|k| k.point_ids.iter().flatten().copied())
-        .collect();
-    ids.sort_unstable();
-    ids.dedup();
-    if let Some(keyframe) = map.keyframe(current) {
-        let mut seen: Vec<MapPointId> = keyframe.point_ids.iter().flatten().copied().collect();
-        seen.sort_unstable();
-        ids.retain(|id| seen.binary_search(id).is_err());
-    }
+/// The map points of `candidate` and its connected keyframes but those in `seen`
+/// (sorted), in increasing id order.
+fn place_points(map: &Map, candidate: KeyFrameId, seen: &[MapPointId]) -> Vec<MapPointId> {
+    let mut ids = map.place_points(candidate);
+    ids.retain(|id| seen.binary_search(id).is_err());
     ids
 }

@@ -1,0 +1,186 @@
+//! Relocalisation against the whole map, end to end on the synthetic loop (the camera
+//! goes round the room looking at the walls, one degree per frame): the in-process
+//! odometry maps the first sixth of a lap; the camera then goes blind (frames that
+//! cannot be read) while it travels on, sees the opposite wall (never mapped: it must
+//! not relocalise), goes blind again and comes back to the start. The frames there are
+//! found in the map within a few frames and tracked on from there close to the truth.
+//!
+//! The tracker relocalises only around its reference keyframe (where it was lost), so
+//! the start of the lap is found by the mapping half, in its whole map.
+
+use gfs_lines::extractor::LineConfig;
+use gfs_odometry::{Frontend, Odometry, OdometryConfig, TrackingStatus};
+use gfs_planes::PlaneConfig;
+use gfs_points::OrbConfig;
+use gfs_synth::{SynthConfig, SynthSequence, TrajectoryKind};
+use nalgebra::Isometry3;
+use std::ops::Range;
+
+/// Tracked and mapped: the first 60 degrees of the lap.
+const MAPPED: Range<usize> = 0..60;
+/// The opposite wall, seen between blind stretches.
+const UNMAPPED: Range<usize> = 180..186;
+/// Back at the start (a lap is 360 frames), until past the mapped stretch's start.
+const BACK: Range<usize> = 350..380;
+/// Frames of `BACK` the relocalisation may take.
+const MAX_FRAMES_TO_RELOCALISE: usize = 3;
+
+struct Run {
+    frontend: Frontend,
+    odometry: Odometry,
+    sequence: SynthSequence,
+    /// `T_wc` of frame 0, which is the odometry's world.
+    origin: Isometry3<f64>,
+    relocalisation_ms: Vec<f64>,
+}
+
+impl Run {
+    /// The map pose of frame `i` and its status; the error against the truth, metres
+    /// and degrees.
+    fn step(&mut self, i: usize) -> (TrackingStatus, f64, f64) {
+        let frame = self.sequence.render(i);
+        let rotation = self.odometry.predicted_rotation();
+        let features = self
+            .frontend
+            .extract(
+                gfs_core::ids::FrameId(i as u64),
+                frame.timestamp,
+                frame.gray.view(),
+                frame.depth.view(),
+                rotation.as_ref(),
+            )
+            .unwrap();
+        let pose = self.odometry.process(features).unwrap();
+        if let Some(t) = self.odometry.timings().relocalisation {
+            self.relocalisation_ms.push(t.as_secs_f64() * 1e3);
+        }
+        let estimate = self.odometry.map_from_odom() * pose.world_from_camera;
+        let error = (self.origin.inverse() * frame.pose).inverse() * estimate;
+        (
+            pose.status,
+            error.translation.vector.norm(),
+            error.rotation.angle().to_degrees(),
+        )
+    }
+
+    fn blind(&mut self, frames: Range<usize>) {
+        for i in frames {
+            let pose = self
+                .odometry
+                .skip(gfs_core::ids::FrameId(i as u64), self.sequence.timestamp(i));
+            assert_eq!(pose.status, TrackingStatus::Predicted, "frame {i}");
+        }
+    }
+}
+
+#[test]
+fn a_camera_moved_while_blind_is_found_in_the_whole_map_and_nowhere_else() {
+    let sequence = SynthSequence::new(SynthConfig {
+        trajectory: TrajectoryKind::Loop,
+        frames: BACK.end,
+        ..SynthConfig::default()
+    });
+    let mut config = OdometryConfig::default();
+    // The frames of the opposite wall are lost one after the other; a new local map
+    // after five of them would drop the old one (the mapping half holds one map).
+    config.tracking.frames_before_new_map = 30;
+    let camera = sequence.config().camera;
+    let (points, lines) = (OrbConfig::default(), LineConfig::default());
+    let frontend = Frontend::new(
+        camera,
+        &points,
+        &lines,
+        &PlaneConfig::default(),
+        config.tracking.use_lines,
+        config.tracking.use_manhattan,
+    )
+    .unwrap();
+    let odometry = Odometry::new(
+        config,
+        camera,
+        f64::from(points.scale_factor),
+        points.levels as u8,
+        &lines.grid,
+    );
+    let mut run = Run {
+        frontend,
+        odometry,
+        origin: sequence.pose(0),
+        sequence,
+        relocalisation_ms: Vec::new(),
+    };
+    let mut mapped_error: f64 = 0.0;
+    for i in MAPPED {
+        let (status, metres, _) = run.step(i);
+        assert!(status.is_tracked(), "frame {i}: {status}");
+        mapped_error = mapped_error.max(metres);
+    }
+    let keyframes = run.odometry.map().keyframe_count();
+    run.blind(MAPPED.end..UNMAPPED.start);
+    for i in UNMAPPED {
+        let (status, _, _) = run.step(i);
+        assert_eq!(
+            status,
+            TrackingStatus::Predicted,
+            "frame {i}: a false relocalisation"
+        );
+    }
+    let asked_elsewhere = run.relocalisation_ms.len();
+    assert_eq!(
+        asked_elsewhere,
+        UNMAPPED.len(),
+        "each lost frame asks the mapping half"
+    );
+    run.blind(UNMAPPED.end..BACK.start);
+    let mut found = None;
+    let mut after: Vec<(usize, f64, f64)> = Vec::new();
+    for i in BACK {
+        let (status, metres, degrees) = run.step(i);
+        match found {
+            None if status == TrackingStatus::Relocalised => {
+                found = Some(i);
+                after.push((i, metres, degrees));
+            }
+            None => assert_eq!(status, TrackingStatus::Predicted, "frame {i}"),
+            Some(_) => {
+                assert!(status.is_tracked(), "frame {i}: {status}");
+                after.push((i, metres, degrees));
+            }
+        }
+    }
+    let found = found.expect("never relocalised");
+    let mut times = run.relocalisation_ms.clone();
+    times.sort_by(f64::total_cmp);
+    let worst = after.iter().fold((0.0f64, 0.0f64), |(m, d), (_, em, ed)| {
+        (m.max(*em), d.max(*ed))
+    });
+    println!(
+        "{keyframes} keyframes mapped over frames {MAPPED:?} (largest error {mapped_error:.4} m); \
+         relocalised at frame {found} ({} frames after coming back), error then {:.4} m / {:.3} deg; \
+         frames after it: largest error {:.4} m / {:.3} deg; {} relocalisation queries, \
+         median {:.2} ms, largest {:.2} ms (query + verification, a loaded machine)",
+        found - BACK.start,
+        after[0].1,
+        after[0].2,
+        worst.0,
+        worst.1,
+        times.len(),
+        times[times.len() / 2],
+        times[times.len() - 1],
+    );
+    assert!(
+        found - BACK.start < MAX_FRAMES_TO_RELOCALISE,
+        "frame {found}"
+    );
+    for (i, metres, degrees) in &after {
+        assert!(
+            *metres < 0.01 && *degrees < 0.5,
+            "frame {i}: {metres} m, {degrees} deg"
+        );
+    }
+    assert!(
+        worst.0 < mapped_error + 0.005,
+        "{} m against {mapped_error} m while mapping",
+        worst.0
+    );
+}
