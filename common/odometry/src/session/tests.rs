@@ -333,9 +333,17 @@ fn a_lost_frame_is_found_through_the_mapping_half_when_the_trackers_map_lacks_it
     assert_eq!(restored.state(), TrackingState::Tracking);
     assert_eq!(restored.reference(), Some(found.keyframe));
     assert!(restored.take_relocalised().is_none(), "taken once");
-    // The request sent again (a restarted tracker): the same answer, nothing new.
+    // The request sent again (a restarted tracker), to this mapping half or to one
+    // restarted from the map it sent: the same answer, nothing new.
     let again = mapping.relocalise(&request).to_owned();
-    assert_eq!(again.relocalised, Some(found));
+    assert_eq!(again.relocalised.as_ref(), Some(&found));
+    let (_, mut restarted) = halves();
+    restarted.restore(again.clone());
+    let from_restarted = restarted.relocalise(&request).to_owned();
+    assert_eq!(
+        (from_restarted.seq, from_restarted.relocalised),
+        (request.seq, Some(found))
+    );
     assert!(!restored.apply(again));
     // Tracking goes on from the relocalised frame.
     let next = pose(0.36, 12.2f64.to_radians());

@@ -186,7 +186,8 @@ impl TrackingSession {
         self.tracker.velocity().map(|v| v.rotation)
     }
 
-    /// The keyframe request still waiting for its map (number and frame), if any.
+    /// The request (keyframe or relocalisation) still waiting for its map (number and
+    /// frame), if any.
     pub fn pending_request(&self) -> Option<(u64, FrameId)> {
         self.requests.pending()
     }
