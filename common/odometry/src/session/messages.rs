@@ -78,6 +78,10 @@ pub struct RelocalisationRequest {
 
 /// What the tracking half sends the mapping half (the pipeline's `keyframe` topic).
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[expect(
+    clippy::large_enum_variant,
+    reason = "one request per keyframe or lost frame, decoded and taken apart at once"
+)]
 pub enum MapRequest {
     /// Make a frame a keyframe.
     KeyFrame(KeyFrameRequest),
