@@ -91,6 +91,11 @@ impl PlaceIndex {
             .collect()
     }
 
+    /// The vocabulary the keyframes are described with.
+    pub fn vocabulary(&self) -> &Vocabulary {
+        &self.vocabulary
+    }
+
     /// The keyframes that look most like a frame of `descriptors` (not a keyframe of the
     /// map: a lost frame to relocalise), best first, at most `max_candidates`, each with
     /// at least `min_score`. Call after [`Self::sync`].

@@ -12,6 +12,7 @@ use crate::matching::match_descriptors;
 use crate::pose_solver::PoseSolver;
 use crate::ransac::{Correspondence, RigidRansac};
 use gfs_core::camera::PinholeCamera;
+use gfs_core::descriptor::Descriptor;
 use gfs_core::ids::{KeyFrameId, MapPointId};
 use nalgebra::Isometry3;
 
@@ -34,6 +35,10 @@ pub struct LoopMatch {
     /// Number of those matches.
     pub inliers: usize,
 }
+
+/// Matches a frame's descriptors (first) to a place's (second): for each of the frame's,
+/// the index of the place's it matches.
+pub type DescriptorMatcher<'a> = dyn Fn(&[Descriptor], &[Descriptor], &mut Vec<Option<usize>>) + 'a;
 
 /// Reusable buffers of [`Verifier::verify`].
 pub struct Verifier {
@@ -67,12 +72,25 @@ impl Verifier {
         let keyframe = map.keyframe(current)?;
         let mut seen: Vec<MapPointId> = keyframe.point_ids.iter().flatten().copied().collect();
         seen.sort_unstable();
-        self.verify_frame(map, &keyframe.features, &seen, candidate, min_inliers, seed)
+        let exhaustive = |frame: &[Descriptor], place: &[Descriptor], out: &mut Vec<_>| {
+            match_descriptors(frame, place, MAX_DISTANCE, RATIO, out);
+        };
+        self.verify_frame(
+            map,
+            &keyframe.features,
+            &seen,
+            candidate,
+            &exhaustive,
+            min_inliers,
+            seed,
+        )
     }
 
     /// Verifies that a frame of `features` sees the place of `candidate` (the map
     /// points of it and its connected keyframes, but those in `seen`, sorted): the
     /// frame's pose there, or `None` when fewer than `min_inliers` matches survive.
+    /// `matcher` matches the frame's descriptors to the place's (the place point of
+    /// each keypoint, by index).
     /// A keyframe of the map checks a loop ([`Self::verify`]); a lost frame is
     /// relocalised ([`crate::map_relocalisation`]).
     pub fn verify_frame(
@@ -81,6 +99,7 @@ impl Verifier {
         features: &FrameFeatures,
         seen: &[MapPointId],
         candidate: KeyFrameId,
+        matcher: &DescriptorMatcher<'_>,
         min_inliers: usize,
         seed: u64,
     ) -> Option<LoopMatch> {
@@ -89,13 +108,7 @@ impl Verifier {
             .into_iter()
             .filter_map(|id| map.point(id).map(|p| (id, p.descriptor)))
             .unzip();
-        match_descriptors(
-            &features.point_descriptors,
-            &descriptors,
-            MAX_DISTANCE,
-            RATIO,
-            &mut self.matches,
-        );
+        matcher(&features.point_descriptors, &descriptors, &mut self.matches);
         let mut keypoints = Vec::new();
         let mut pairs = Vec::new();
         for (i, m) in self.matches.iter().enumerate() {
