@@ -93,6 +93,10 @@ impl Verifier {
     /// each keypoint, by index).
     /// A keyframe of the map checks a loop ([`Self::verify`]); a lost frame is
     /// relocalised ([`crate::map_relocalisation`]).
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the frame, the place and how to match them, the acceptance and the seed"
+    )]
     pub fn verify_frame(
         &mut self,
         map: &Map,
