@@ -11,7 +11,8 @@
 //! [`Strategy`] list in order (motion model, wide search with RANSAC, reference
 //! keyframe), tracks the local map and optimises the pose on point reprojection and
 //! line endpoint-to-line errors (eq. 6-9); a frame nothing tracks is relocalised
-//! against the map. What it saw of each landmark goes into [`Sightings`]. The
+//! around its reference keyframe, else by the mapping half against the whole map
+//! ([`MapRelocaliser`]). What it saw of each landmark goes into [`Sightings`]. The
 //! [`Mapper`] turns keyframes (chosen on points **or** lines, [`needs_keyframe`]) into
 //! landmarks, fuses duplicates, runs the local BA with reprojection, structural and
 //! Manhattan terms (eq. 10-14) and culls keyframes redundant in both points and lines.
@@ -42,6 +43,7 @@ mod local_ba;
 pub mod loop_closing;
 mod manhattan;
 pub mod map;
+mod map_relocalisation;
 mod mapper;
 pub mod matching;
 mod messages_check;
@@ -74,6 +76,7 @@ pub use frame::{FeatureError, FrameFeatures, FrameSurfaces};
 pub use frontend::{DEPTH_GRID_STEP, Frontend, FrontendError, FrontendTimings, StructureExtractor};
 pub use keyframe_policy::{KeyframeContext, needs_keyframe};
 pub use manhattan::WorldManhattan;
+pub use map_relocalisation::{MapRelocalisation, MapRelocaliser};
 pub use mapper::Mapper;
 pub use messages_check::MessageError;
 pub use motion::MotionModel;

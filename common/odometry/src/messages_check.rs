@@ -5,7 +5,7 @@
 //! indexing out of bounds or poisoning the map with NaN.
 
 use crate::frame::FrameFeatures;
-use crate::session::{KeyFrameRequest, MapUpdate};
+use crate::session::{KeyFrameRequest, MapRequest, MapUpdate, RelocalisationRequest};
 use crate::tracker::TrackedFrame;
 use gfs_core::ids::FrameId;
 use nalgebra::Isometry3;
@@ -155,6 +155,35 @@ impl KeyFrameRequest {
     }
 }
 
+impl RelocalisationRequest {
+    /// Checks the request number and the frame's features.
+    ///
+    /// # Errors
+    /// [`MessageError`] naming the first field that is wrong.
+    pub fn check(&self) -> Result<(), MessageError> {
+        if self.seq == 0 {
+            return Err(MessageError {
+                frame: self.features.id,
+                what: "relocalisation request seq 0 (requests count from 1)".to_owned(),
+            });
+        }
+        self.features.check()
+    }
+}
+
+impl MapRequest {
+    /// Checks the request it holds.
+    ///
+    /// # Errors
+    /// [`MessageError`] naming the first field that is wrong.
+    pub fn check(&self) -> Result<(), MessageError> {
+        match self {
+            Self::KeyFrame(r) => r.check(),
+            Self::Relocalise(r) => r.check(),
+        }
+    }
+}
+
 impl MapUpdate {
     /// Checks that the keyframe it names is in its map and its axes are finite.
     ///
@@ -171,6 +200,17 @@ impl MapUpdate {
             && self.map.keyframe(kf).is_none()
         {
             return fail(format!("keyframe {kf:?} is not in the map"));
+        }
+        if let Some(found) = &self.relocalised {
+            if self.map.keyframe(found.keyframe).is_none() {
+                return fail(format!(
+                    "relocalised.keyframe {:?} is not in the map",
+                    found.keyframe
+                ));
+            }
+            if !finite_pose(&found.camera_from_world) {
+                return fail("relocalised.camera_from_world is not finite".to_owned());
+            }
         }
         if let Some(axes) = self.manhattan.axes()
             && !finite(axes.matrix().as_slice())

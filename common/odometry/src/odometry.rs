@@ -22,6 +22,9 @@ pub struct OdometryTimings {
     pub tracking: Duration,
     /// Local mapping, when the frame became a keyframe.
     pub mapping: Option<Duration>,
+    /// Relocalisation against the whole map in the mapping half (bag-of-words query and
+    /// verification), when the frame was lost.
+    pub relocalisation: Option<Duration>,
 }
 
 /// RGB-D visual odometry over point, line and Manhattan features.
@@ -104,6 +107,7 @@ impl Odometry {
         let start = Instant::now();
         let output = self.tracking.process(features)?;
         let tracked = start.elapsed();
+        let mut pose = output.pose;
         let mut mapping = None;
         if let Some(request) = output.keyframe {
             let mapping_start = Instant::now();
@@ -111,11 +115,23 @@ impl Odometry {
             self.tracking.apply(update);
             mapping = Some(mapping_start.elapsed());
         }
+        let mut relocalisation = None;
+        if let Some(request) = output.relocalisation {
+            let relocalisation_start = Instant::now();
+            let answer = self.mapping.relocalise(&request);
+            relocalisation = Some(relocalisation_start.elapsed());
+            let update = answer.to_owned();
+            self.tracking.apply(update);
+            if let Some(found) = self.tracking.take_relocalised() {
+                pose = found;
+            }
+        }
         self.timings = OdometryTimings {
             tracking: tracked,
             mapping,
+            relocalisation,
         };
-        Ok(output.pose)
+        Ok(pose)
     }
 }
 

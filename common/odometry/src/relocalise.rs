@@ -1,6 +1,7 @@
-//! Relocalisation against the map when tracking is lost: exhaustive descriptor matching
-//! of the frame's keypoints that have depth to the map points, then RANSAC over the
-//! 3D-3D correspondences ([`crate::ransac`]).
+//! Relocalisation against some of the map's points when tracking is lost (the tracker's
+//! own, around its reference keyframe): exhaustive descriptor matching of the frame's
+//! keypoints that have depth to the points, then RANSAC over the 3D-3D correspondences
+//! ([`crate::ransac`]). Against the whole map: [`crate::MapRelocaliser`].
 
 use crate::frame::FrameFeatures;
 use crate::map::Map;
@@ -27,20 +28,20 @@ pub struct Relocalisation {
     pub inliers: usize,
 }
 
-/// Finds the frame's pose in `map`, or `None` when fewer than `min_inliers`
-/// correspondences agree. `seed` makes the sampling reproducible.
+/// Finds the frame's pose among the map points `ids` of `map`, or `None` when fewer
+/// than `min_inliers` correspondences agree. `seed` makes the sampling reproducible.
 pub fn relocalise(
     map: &Map,
+    ids: &[MapPointId],
     frame: &FrameFeatures,
     camera: &PinholeCamera,
     min_inliers: usize,
     seed: u64,
 ) -> Option<Relocalisation> {
-    let ids: Vec<MapPointId> = map.point_ids().collect();
-    let descriptors: Vec<_> = ids
+    let (ids, descriptors): (Vec<MapPointId>, Vec<_>) = ids
         .iter()
-        .filter_map(|id| map.point(*id).map(|p| p.descriptor))
-        .collect();
+        .filter_map(|id| map.point(*id).map(|p| (*id, p.descriptor)))
+        .unzip();
     let mut matches = Vec::new();
     match_descriptors(
         &frame.point_descriptors,
@@ -93,13 +94,14 @@ mod tests {
         let (map, _, _) = first_keyframe(&scene, &OdometryConfig::default());
         let truth = pose(0.2, 10f64.to_radians());
         let frame = scene.features(9, &truth);
-        let found = relocalise(&map, &frame, &camera(), 40, 9).expect("relocalised");
+        let ids: Vec<MapPointId> = map.point_ids().collect();
+        let found = relocalise(&map, &ids, &frame, &camera(), 40, 9).expect("relocalised");
         let error = found.camera_from_world * truth.inverse();
         assert!(error.translation.vector.norm() < 1e-6, "{error}");
         let in_view = frame.keypoints.iter().filter(|k| k.depth > 0.0).count();
         assert_eq!(found.inliers, in_view);
         assert_eq!(found.point_ids.iter().flatten().count(), in_view);
         // Asking for more inliers than there are keypoints in view fails.
-        assert!(relocalise(&map, &frame, &camera(), in_view + 1, 9).is_none());
+        assert!(relocalise(&map, &ids, &frame, &camera(), in_view + 1, 9).is_none());
     }
 }

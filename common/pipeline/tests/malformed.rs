@@ -7,7 +7,7 @@ use gfs_ipc::{
     IpcRun, MAX_VARIABLE_MESSAGE_BYTES, Mode, MsgHeader, RunId, Stage, TopicPublisher,
     TopicSubscriber, encode_message, local, topics,
 };
-use gfs_odometry::session::{KeyFrameRequest, MapUpdate};
+use gfs_odometry::session::{KeyFrameRequest, MapRequest, MapUpdate};
 use gfs_odometry::{FrameFeatures, TrackedFrame, TrackingStatus, WorldManhattan};
 use gfs_pipeline::Config;
 use gfs_pipeline::stages::{StageContext, StageSettings, run_stage};
@@ -97,7 +97,7 @@ fn the_mapper_drops_bad_keyframe_messages_and_answers_the_next_good_one() {
     )
     .unwrap();
     let mut valid = Vec::new();
-    encode_message(&request(), &mut valid).unwrap();
+    encode_message(&MapRequest::KeyFrame(request()), &mut valid).unwrap();
     let header = MsgHeader::new(FrameId(0), 1.0);
     // Garbage until the mapper is subscribed (a message before that reaches no one).
     let deadline = Instant::now() + Duration::from_secs(20);
@@ -117,7 +117,7 @@ fn the_mapper_drops_bad_keyframe_messages_and_answers_the_next_good_one() {
     let mut short = request();
     short.frame.point_ids.pop();
     let mut inconsistent = Vec::new();
-    encode_message(&short, &mut inconsistent).unwrap();
+    encode_message(&MapRequest::KeyFrame(short), &mut inconsistent).unwrap();
     publisher.publish_slice(&header, &inconsistent).unwrap();
     publisher.publish_slice(&header, &valid).unwrap();
 

@@ -90,4 +90,27 @@ impl PlaceIndex {
             .map(|(k, _)| k)
             .collect()
     }
+
+    /// The vocabulary the keyframes are described with.
+    pub fn vocabulary(&self) -> &Vocabulary {
+        &self.vocabulary
+    }
+
+    /// The keyframes that look most like a frame of `descriptors` (not a keyframe of the
+    /// map: a lost frame to relocalise), best first, at most `max_candidates`, each with
+    /// at least `min_score`. Call after [`Self::sync`].
+    pub fn query(
+        &self,
+        descriptors: &[gfs_core::descriptor::Descriptor],
+        max_candidates: usize,
+        min_score: f64,
+    ) -> Vec<KeyFrameId> {
+        let bow = self.vocabulary.transform(descriptors);
+        self.database
+            .query(&bow, max_candidates, |_| false)
+            .into_iter()
+            .filter(|(_, s)| *s >= min_score)
+            .map(|(k, _)| k)
+            .collect()
+    }
 }

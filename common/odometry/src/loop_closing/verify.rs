@@ -6,11 +6,13 @@
 //! the current keyframe's in the frame of the candidate's side of the loop: where the
 //! drift-free map says the camera is.
 
+use crate::frame::FrameFeatures;
 use crate::map::Map;
 use crate::matching::match_descriptors;
 use crate::pose_solver::PoseSolver;
 use crate::ransac::{Correspondence, RigidRansac};
 use gfs_core::camera::PinholeCamera;
+use gfs_core::descriptor::Descriptor;
 use gfs_core::ids::{KeyFrameId, MapPointId};
 use nalgebra::Isometry3;
 
@@ -33,6 +35,10 @@ pub struct LoopMatch {
     /// Number of those matches.
     pub inliers: usize,
 }
+
+/// Matches a frame's descriptors (first) to a place's (second): for each of the frame's,
+/// the index of the place's it matches.
+pub type DescriptorMatcher<'a> = dyn Fn(&[Descriptor], &[Descriptor], &mut Vec<Option<usize>>) + 'a;
 
 /// Reusable buffers of [`Verifier::verify`].
 pub struct Verifier {
@@ -64,20 +70,49 @@ impl Verifier {
         seed: u64,
     ) -> Option<LoopMatch> {
         let keyframe = map.keyframe(current)?;
+        let mut seen: Vec<MapPointId> = keyframe.point_ids.iter().flatten().copied().collect();
+        seen.sort_unstable();
+        let exhaustive = |frame: &[Descriptor], place: &[Descriptor], out: &mut Vec<_>| {
+            match_descriptors(frame, place, MAX_DISTANCE, RATIO, out);
+        };
+        self.verify_frame(
+            map,
+            &keyframe.features,
+            &seen,
+            candidate,
+            &exhaustive,
+            min_inliers,
+            seed,
+        )
+    }
+
+    /// Verifies that a frame of `features` sees the place of `candidate` (the map
+    /// points of it and its connected keyframes, but those in `seen`, sorted): the
+    /// frame's pose there, or `None` when fewer than `min_inliers` matches survive.
+    /// `matcher` matches the frame's descriptors to the place's (the place point of
+    /// each keypoint, by index).
+    /// A keyframe of the map checks a loop ([`Self::verify`]); a lost frame is
+    /// relocalised ([`crate::map_relocalisation`]).
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the frame, the place and how to match them, the acceptance and the seed"
+    )]
+    pub fn verify_frame(
+        &mut self,
+        map: &Map,
+        features: &FrameFeatures,
+        seen: &[MapPointId],
+        candidate: KeyFrameId,
+        matcher: &DescriptorMatcher<'_>,
+        min_inliers: usize,
+        seed: u64,
+    ) -> Option<LoopMatch> {
         // Ids and descriptors side by side, so that a match's index names its point.
-        let (ids, descriptors): (Vec<MapPointId>, Vec<_>) =
-            loop_side_points(map, current, candidate)
-                .into_iter()
-                .filter_map(|id| map.point(id).map(|p| (id, p.descriptor)))
-                .unzip();
-        let features = &keyframe.features;
-        match_descriptors(
-            &features.point_descriptors,
-            &descriptors,
-            MAX_DISTANCE,
-            RATIO,
-            &mut self.matches,
-        );
+        let (ids, descriptors): (Vec<MapPointId>, Vec<_>) = place_points(map, candidate, seen)
+            .into_iter()
+            .filter_map(|id| map.point(id).map(|p| (id, p.descriptor)))
+            .unzip();
+        matcher(&features.point_descriptors, &descriptors, &mut self.matches);
         let mut keypoints = Vec::new();
         let mut pairs = Vec::new();
         for (i, m) in self.matches.iter().enumerate() {
@@ -123,20 +158,10 @@ impl Verifier {
     }
 }
 
-/// The map points of `candidate` and its connected keyframes that `current` does not
-/// observe already, in increasing id order.
-fn loop_side_points(map: &Map, current: KeyFrameId, candidate: KeyFrameId) -> Vec<MapPointId> {
-    let mut ids: Vec<MapPointId> = std::iter::once(candidate)
-        .chain(map.connected(candidate).into_iter().map(|(k, _)| k))
-        .filter_map(|k| map.keyframe(k))
-        .flat_map(|k| k.point_ids.iter().flatten().copied())
-        .collect();
-    ids.sort_unstable();
-    ids.dedup();
-    if let Some(keyframe) = map.keyframe(current) {
-        let mut seen: Vec<MapPointId> = keyframe.point_ids.iter().flatten().copied().collect();
-        seen.sort_unstable();
-        ids.retain(|id| seen.binary_search(id).is_err());
-    }
+/// The map points of `candidate` and its connected keyframes but those in `seen`
+/// (sorted), in increasing id order.
+fn place_points(map: &Map, candidate: KeyFrameId, seen: &[MapPointId]) -> Vec<MapPointId> {
+    let mut ids = map.place_points(candidate);
+    ids.retain(|id| seen.binary_search(id).is_err());
     ids
 }

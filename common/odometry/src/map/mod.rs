@@ -381,6 +381,19 @@ impl Map {
         all
     }
 
+    /// The map points of `kf` and of its [`Self::connected`] keyframes, the place it
+    /// sees, sorted by id.
+    pub fn place_points(&self, kf: KeyFrameId) -> Vec<MapPointId> {
+        let mut ids: Vec<MapPointId> = std::iter::once(kf)
+            .chain(self.connected(kf).into_iter().map(|(k, _)| k))
+            .filter_map(|k| self.keyframes.get(&k))
+            .flat_map(|k| k.point_ids.iter().flatten().copied())
+            .collect();
+        ids.sort_unstable();
+        ids.dedup();
+        ids
+    }
+
     /// Recomputes the viewing direction and the scale-invariance distances of a point.
     pub fn update_point_geometry(&mut self, id: MapPointId, scale_factor: f64, levels: u8) {
         let Some(p) = self.points.get(id) else {

@@ -1,11 +1,15 @@
 //! The mapping half of the odometry (the `mapper` service): owns the map, turns keyframe
-//! requests into keyframes with local mapping, and answers each with the map.
+//! requests into keyframes with local mapping, finds the frames of relocalisation
+//! requests in the whole map, and answers each request with the map.
 
-use super::messages::{KeyFrameRequest, MapUpdate, MapUpdateRef};
+use super::messages::{
+    KeyFrameRequest, MapUpdate, MapUpdateRef, RelocalisationRequest, Relocalised,
+};
 use crate::config::OdometryConfig;
 use crate::loop_closing::{LoopCloser, LoopClosure, LoopCorrection, apply_correction};
 use crate::manhattan::WorldManhattan;
 use crate::map::Map;
+use crate::map_relocalisation::MapRelocaliser;
 use crate::mapper::Mapper;
 use crate::matching::ScalePyramid;
 use gfs_core::camera::PinholeCamera;
@@ -19,10 +23,15 @@ pub struct MappingSession {
     /// its corrections ([`Self::apply`]).
     loops: Option<LoopCloser>,
     closures: Vec<LoopClosure>,
+    /// Every keyframe of the map as a bag of words, for lost frames, in every mode.
+    relocaliser: MapRelocaliser,
     map: Map,
     manhattan: WorldManhattan,
     last_applied: u64,
     last_keyframe: Option<KeyFrameId>,
+    /// The answer of the last request applied when it was a relocalisation that found
+    /// its frame (sent again with the map to a request sent again).
+    relocalised: Option<Relocalised>,
 }
 
 impl MappingSession {
@@ -40,10 +49,12 @@ impl MappingSession {
             mapper: Mapper::new(config, camera, scale),
             loops: detects.then(|| LoopCloser::new(config, camera, scale)),
             closures: Vec::new(),
+            relocaliser: MapRelocaliser::new(config, camera, scale),
             manhattan: WorldManhattan::new(config.tracking.use_manhattan),
             map: Map::default(),
             last_applied: 0,
             last_keyframe: None,
+            relocalised: None,
         }
     }
 
@@ -117,9 +128,50 @@ impl MappingSession {
             {
                 self.apply(&correction);
             }
+            self.relocaliser.sync(&self.map);
             self.last_applied = request.seq;
             self.last_keyframe = Some(kf);
+            self.relocalised = None;
         }
+        self.update()
+    }
+
+    /// Looks for the request's lost frame in the whole map (bag-of-words candidates
+    /// among every keyframe, verified geometrically), unless a request with this number
+    /// was applied already. The map is not changed. Returns the map to send back, with
+    /// the frame's pose when it was found ([`MapUpdate::relocalised`]).
+    pub fn relocalise(&mut self, request: &RelocalisationRequest) -> MapUpdateRef<'_> {
+        if request.seq > self.last_applied {
+            let features = &request.features;
+            let found = self
+                .relocaliser
+                .relocalise(&self.map, features, features.id.0);
+            tracing::info!(
+                frame = %features.id,
+                keyframe = ?found.as_ref().map(|f| f.keyframe),
+                inliers = found.as_ref().map_or(0, |f| f.inliers),
+                "relocalisation against the whole map"
+            );
+            self.relocalised = found.map(|f| Relocalised {
+                frame: features.id,
+                timestamp: features.timestamp,
+                keyframe: f.keyframe,
+                camera_from_world: f.camera_from_world,
+                point_ids: f.point_ids,
+                inliers: f.inliers,
+            });
+            self.last_applied = request.seq;
+            self.last_keyframe = None;
+        }
+        let centre = self.relocalised.as_ref().map(|r| r.keyframe);
+        self.update_around(centre)
+    }
+
+    /// The map to send with a relocalisation's answer, around `centre` (the keyframe the
+    /// frame was found against). The tracker gets the whole map today, which holds it;
+    /// once the tracker gets only a neighbourhood, this is where it is chosen.
+    fn update_around(&self, centre: Option<KeyFrameId>) -> MapUpdateRef<'_> {
+        tracing::debug!(centre = ?centre, "map for a relocalised tracker");
         self.update()
     }
 
@@ -163,6 +215,7 @@ impl MappingSession {
             map: &self.map,
             manhattan: &self.manhattan,
             recent_points: self.mapper.recent_points(),
+            relocalised: self.relocalised.as_ref(),
         }
     }
 
@@ -174,5 +227,7 @@ impl MappingSession {
         self.map.canonicalise();
         self.manhattan = update.manhattan;
         self.mapper.restore_recent_points(update.recent_points);
+        self.relocalised = update.relocalised;
+        self.relocaliser.sync(&self.map);
     }
 }

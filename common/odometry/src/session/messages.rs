@@ -1,13 +1,15 @@
 //! What the tracking half and the mapping half of the odometry tell each other: a
-//! keyframe request one way, the map after local mapping the other way. Both are plain
+//! keyframe request (or, when lost, a relocalisation request) one way, the map after
+//! local mapping the other way. Both are plain
 //! serde values; the pipeline sends them as bincode, the in-process odometry by value.
 
+use crate::frame::FrameFeatures;
 use crate::loop_closing::LoopCorrection;
 use crate::manhattan::WorldManhattan;
 use crate::map::Map;
 use crate::sightings::Sightings;
 use crate::tracker::TrackedFrame;
-use gfs_core::ids::{KeyFrameId, MapPointId};
+use gfs_core::ids::{FrameId, KeyFrameId, MapPointId};
 use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
 
@@ -58,6 +60,61 @@ pub struct MapUpdate {
     /// The mapper's recently created points still on probation: not used by the
     /// tracker, but part of the mapper's checkpoint (this message).
     pub recent_points: Vec<MapPointId>,
+    /// The lost frame found in the map, when this answers a [`RelocalisationRequest`]
+    /// that succeeded.
+    pub relocalised: Option<Relocalised>,
+}
+
+/// The tracker, lost and not relocalised in its own map, asks the mapper to find a
+/// frame in the whole map. Numbered with the keyframe requests ([`KeyFrameRequest::
+/// seq`]): the mapper applies each number once and answers with a [`MapUpdate`].
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RelocalisationRequest {
+    /// Request number, shared with the keyframe requests.
+    pub seq: u64,
+    /// The lost frame's features.
+    pub features: FrameFeatures,
+}
+
+/// What the tracking half sends the mapping half (the pipeline's `keyframe` topic).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[expect(
+    clippy::large_enum_variant,
+    reason = "one request per keyframe or lost frame, decoded and taken apart at once"
+)]
+pub enum MapRequest {
+    /// Make a frame a keyframe.
+    KeyFrame(KeyFrameRequest),
+    /// Find a lost frame in the whole map.
+    Relocalise(RelocalisationRequest),
+}
+
+impl MapRequest {
+    /// The request number.
+    pub fn seq(&self) -> u64 {
+        match self {
+            Self::KeyFrame(r) => r.seq,
+            Self::Relocalise(r) => r.seq,
+        }
+    }
+}
+
+/// A lost frame found in the mapper's map: the tracker goes on from its pose, with the
+/// keyframe it was found against as the reference.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Relocalised {
+    /// The frame of the request.
+    pub frame: FrameId,
+    /// Its capture time, seconds.
+    pub timestamp: f64,
+    /// The keyframe whose place it sees.
+    pub keyframe: KeyFrameId,
+    /// Its `camera_from_world` in the map.
+    pub camera_from_world: Isometry3<f64>,
+    /// The map point of each of its keypoints (inliers only).
+    pub point_ids: Vec<Option<MapPointId>>,
+    /// Point inliers of the pose optimisation.
+    pub inliers: usize,
 }
 
 /// The loop stage's answer to the map of one keyframe request: the correction of the
@@ -84,6 +141,8 @@ pub struct MapUpdateRef<'a> {
     pub manhattan: &'a WorldManhattan,
     /// See [`MapUpdate::recent_points`].
     pub recent_points: &'a [MapPointId],
+    /// See [`MapUpdate::relocalised`].
+    pub relocalised: Option<&'a Relocalised>,
 }
 
 impl MapUpdateRef<'_> {
@@ -95,6 +154,7 @@ impl MapUpdateRef<'_> {
             map: self.map.clone(),
             manhattan: self.manhattan.clone(),
             recent_points: self.recent_points.to_vec(),
+            relocalised: self.relocalised.cloned(),
         }
     }
 }

@@ -9,7 +9,8 @@ use serde::{Deserialize, Serialize};
 /// ```text
 ///  NoMap ──(frame with enough depth: first keyframe)──► Tracking
 ///  Tracking ──(frame not tracked nor relocalised)──► Lost { frames: 1 }
-///  Lost { frames: n } ──(tracked or relocalised)──► Tracking
+///  Lost { frames: n } ──(tracked or relocalised, by the tracker or, answering a
+///                        relocalisation request, by the mapping half)──► Tracking
 ///  Lost { frames: n } ──(n + 1 = frames_before_new_map)──► NoMap { reset: true }
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

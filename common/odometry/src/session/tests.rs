@@ -291,3 +291,66 @@ fn a_request_tracked_before_a_correction_goes_into_the_map_corrected() {
         .norm();
     assert!(error < 1e-4, "odometry off by {error} m");
 }
+
+#[test]
+fn a_lost_frame_is_found_through_the_mapping_half_when_the_trackers_map_lacks_its_place() {
+    let (mut tracking, mut mapping) = halves();
+    let scene = Scene::new(200, 20);
+    for k in 0..6 {
+        step(&mut tracking, &mut mapping, &scene, k);
+    }
+    // A tracker that holds none of that place (as one given only a neighbourhood of a
+    // global map elsewhere): restarted with an empty map.
+    let (mut restored, _) = halves();
+    let mut elsewhere = mapping.update().to_owned();
+    elsewhere.map = crate::map::Map::default();
+    restored.restore(tracking.checkpoint(), Some(elsewhere));
+    // Moved while blind: 30 cm and 12 degrees on, seeing the mapped place.
+    let moved = pose(0.35, 12f64.to_radians());
+    let out = restored
+        .process(scene.features(20, &moved))
+        .expect("features");
+    assert_eq!(out.pose.status, TrackingStatus::Predicted);
+    assert_eq!(restored.state(), TrackingState::Lost { frames: 1 });
+    assert!(out.keyframe.is_none());
+    let request = out.relocalisation.expect("the mapping half is asked");
+    assert_eq!(
+        restored.pending_request(),
+        Some((request.seq, gfs_core::ids::FrameId(20)))
+    );
+    let update = mapping.relocalise(&request).to_owned();
+    let found = update.relocalised.clone().expect("found in the whole map");
+    assert_eq!(update.check(), Ok(()));
+    assert!(restored.apply(update));
+    let pose_20 = restored.take_relocalised().expect("the frame's pose");
+    assert_eq!(
+        (pose_20.id, pose_20.status),
+        (gfs_core::ids::FrameId(20), TrackingStatus::Relocalised)
+    );
+    let error = pose_20.world_from_camera * moved;
+    assert!(error.translation.vector.norm() < 0.01, "{error}");
+    assert!(error.rotation.angle().to_degrees() < 0.5, "{error}");
+    assert_eq!(restored.state(), TrackingState::Tracking);
+    assert_eq!(restored.reference(), Some(found.keyframe));
+    assert!(restored.take_relocalised().is_none(), "taken once");
+    // The request sent again (a restarted tracker), to this mapping half or to one
+    // restarted from the map it sent: the same answer, nothing new.
+    let again = mapping.relocalise(&request).to_owned();
+    assert_eq!(again.relocalised.as_ref(), Some(&found));
+    let (_, mut restarted) = halves();
+    restarted.restore(again.clone());
+    let from_restarted = restarted.relocalise(&request).to_owned();
+    assert_eq!(
+        (from_restarted.seq, from_restarted.relocalised),
+        (request.seq, Some(found))
+    );
+    assert!(!restored.apply(again));
+    // Tracking goes on from the relocalised frame.
+    let next = pose(0.36, 12.2f64.to_radians());
+    let out = restored
+        .process(scene.features(21, &next))
+        .expect("features");
+    assert_eq!(out.pose.status, TrackingStatus::Tracked);
+    let error = out.pose.world_from_camera * next;
+    assert!(error.translation.vector.norm() < 1e-3, "{error}");
+}

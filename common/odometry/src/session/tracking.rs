@@ -1,8 +1,11 @@
 //! The tracking half of the odometry (the `tracker` service): tracks every frame against
-//! its copy of the map, recovers when lost, decides keyframes and asks the mapping half
-//! for them, and takes in the maps the mapping half sends back.
+//! its copy of the map, recovers when lost (or asks the mapping half to find the frame
+//! in the whole map), decides keyframes and asks the mapping half for them, and takes in
+//! the maps the mapping half sends back.
 
-use super::messages::{KeyFrameRequest, MapUpdate, TrackedAgainst};
+use super::messages::{
+    KeyFrameRequest, MapUpdate, RelocalisationRequest, Relocalised, TrackedAgainst,
+};
 use super::state::{MapReceipt, RequestLedger, TrackingState};
 use crate::config::OdometryConfig;
 use crate::final_trajectory::FrameAnchor;
@@ -56,6 +59,10 @@ pub struct TrackOutput {
     /// Send this to the mapping half, then hand its answer to
     /// [`TrackingSession::apply`].
     pub keyframe: Option<KeyFrameRequest>,
+    /// The frame is lost: send this to the mapping half, then hand its answer to
+    /// [`TrackingSession::apply`] (which goes on from the frame's pose when it was found:
+    /// [`TrackingSession::take_relocalised`]). Never with `keyframe`.
+    pub relocalisation: Option<RelocalisationRequest>,
     /// Covariance of the pose from its optimisation (`gfs_optim::PoseResult::covariance`:
     /// camera-frame translation then rotation); `None` for a predicted pose.
     pub covariance: Option<nalgebra::Matrix6<f64>>,
@@ -108,6 +115,11 @@ pub struct TrackingSession {
     /// exact old pose of the keyframe the answer creates (not checkpointed; a restarted
     /// tracker falls back on the keyframes both maps hold).
     requested_pose: Option<Isometry3<f64>>,
+    /// The features of the frame of the pending relocalisation request (not
+    /// checkpointed; a restarted tracker goes on from the answer's pose alone).
+    relocalising: Option<FrameFeatures>,
+    /// The pose of the frame the last map taken in relocalised, until taken.
+    relocalised: Option<FramePose>,
 }
 
 impl TrackingSession {
@@ -131,6 +143,8 @@ impl TrackingSession {
             frames_since_keyframe: 0,
             map_from_odom: Isometry3::identity(),
             requested_pose: None,
+            relocalising: None,
+            relocalised: None,
             config,
         }
     }
@@ -192,7 +206,8 @@ impl TrackingSession {
         self.tracker.velocity().map(|v| v.rotation)
     }
 
-    /// The keyframe request still waiting for its map (number and frame), if any.
+    /// The request (keyframe or relocalisation) still waiting for its map (number and
+    /// frame), if any.
     pub fn pending_request(&self) -> Option<(u64, FrameId)> {
         self.requests.pending()
     }
@@ -277,13 +292,66 @@ impl TrackingSession {
         }
         let reset = start.is_some_and(|s| s.reset);
         let keyframe = wants_keyframe.then(|| self.request_keyframe(&frame, reset));
+        let lost = matches!(self.state, TrackingState::Lost { .. });
+        let relocalisation = (lost && self.requests.pending().is_none())
+            .then(|| self.request_relocalisation(&frame.features));
         let covariance = tracked.then(|| self.tracker.pose_covariance()).flatten();
         self.tracker.finish_frame(frame);
         Ok(TrackOutput {
             pose,
             keyframe,
+            relocalisation,
             covariance,
         })
+    }
+
+    /// Asks the mapping half to find a lost frame in the whole map.
+    fn request_relocalisation(&mut self, features: &FrameFeatures) -> RelocalisationRequest {
+        self.relocalising = Some(features.clone());
+        RelocalisationRequest {
+            seq: self.requests.open(features.id),
+            features: features.clone(),
+        }
+    }
+
+    /// The pose of the frame the last map taken in relocalised ([`MapUpdate::
+    /// relocalised`]), once: lockstep and inline publish it for the frame that asked;
+    /// in realtime that frame's pose went out already, and the frames after it go on
+    /// from there.
+    pub fn take_relocalised(&mut self) -> Option<FramePose> {
+        self.relocalised.take()
+    }
+
+    /// Goes on from the frame the mapping half found in the whole map: the frame at its
+    /// pose becomes the last one (with its matches when its features are still here),
+    /// the motion model restarts there, the keyframe it was found against becomes the
+    /// reference.
+    fn take_relocalisation(&mut self, found: Relocalised) {
+        let features = self
+            .relocalising
+            .take()
+            .filter(|f| f.id == found.frame)
+            .unwrap_or_else(|| FrameFeatures {
+                id: found.frame,
+                timestamp: found.timestamp,
+                ..FrameFeatures::default()
+            });
+        let mut frame = TrackedFrame::untracked(features, found.camera_from_world);
+        if frame.point_ids.len() == found.point_ids.len() {
+            frame.point_ids = found.point_ids;
+        }
+        frame.inliers.points = found.inliers;
+        frame.status = TrackingStatus::Relocalised;
+        let mut pose = FramePose::of(&frame);
+        if self.map_from_odom != Isometry3::identity() {
+            pose.world_from_camera = self.map_from_odom.inverse() * pose.world_from_camera;
+        }
+        tracing::info!(frame = %found.frame, keyframe = %found.keyframe, inliers = found.inliers, "relocalised against the whole map");
+        self.relocalised = Some(pose);
+        self.tracker.set_reference(found.keyframe);
+        self.tracker.relocalised(frame);
+        self.state = TrackingState::Tracking;
+        self.frames_since_keyframe = 0;
     }
 
     /// One transition of the state machine ([`TrackingState`]): the frame as tracked,
@@ -325,6 +393,7 @@ impl TrackingSession {
     /// are older than the one held, or answer a request not made yet, are ignored
     /// ([`RequestLedger::receive`]).
     pub fn apply(&mut self, update: MapUpdate) -> bool {
+        let pending = self.requests.pending();
         let receipt = self.requests.receive(update.seq);
         if receipt == MapReceipt::Ignored {
             return false;
@@ -345,6 +414,16 @@ impl TrackingSession {
         if let Some(kf) = update.keyframe {
             self.tracker.set_reference(kf);
             self.frames_since_keyframe = 0;
+        }
+        let asked = pending.map(|(_, frame)| frame);
+        // Only a tracker still lost goes back to the frame (realtime: it may have found
+        // its way since).
+        let lost = matches!(self.state, TrackingState::Lost { .. });
+        match update.relocalised.filter(|r| Some(r.frame) == asked) {
+            Some(found) if lost && self.map.keyframe(found.keyframe).is_some() => {
+                self.take_relocalisation(found);
+            }
+            _ => self.relocalising = None,
         }
         true
     }

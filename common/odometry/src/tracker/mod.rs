@@ -2,7 +2,8 @@
 //! model, re-timed for the rolling shutter, then tracked by the first [`Strategy`] of
 //! [`Strategy::order`] that finds enough inliers; the local map then adds its matches
 //! and the pose is optimised again. A frame no strategy tracks is relocalised against
-//! the whole map, or keeps the predicted pose.
+//! the place of the reference keyframe, or keeps the predicted pose (and the tracking
+//! half asks the mapping half to relocalise it against the whole map).
 //!
 //! The tracker reads the map and never changes it: what it saw of each landmark goes
 //! into [`Sightings`], which travel to the map's owner with the next keyframe request.
@@ -169,6 +170,16 @@ impl Tracker {
         self.last = Some(frame);
     }
 
+    /// Goes on from a frame the mapping half relocalised (`frame`, at its pose, as the
+    /// last frame): the motion model restarts there, without a velocity.
+    pub fn relocalised(&mut self, frame: TrackedFrame) {
+        self.motion = MotionModel::default();
+        self.motion
+            .update(&frame.camera_from_world, frame.features.timestamp, true);
+        self.unmeasured.clear();
+        self.last = Some(frame);
+    }
+
     /// The last frame finished, with its features and matches.
     pub fn last_frame(&self) -> Option<&TrackedFrame> {
         self.last.as_ref()
@@ -283,12 +294,25 @@ impl Tracker {
         frame
     }
 
-    /// Relocalises a lost frame against the whole map; the frame keeps its predicted
-    /// pose when that fails.
+    /// Relocalises a lost frame against the place of the reference keyframe (it and its
+    /// connected keyframes, where the camera was lost); the frame keeps its predicted
+    /// pose when that fails, and the tracking half asks the mapping half to search the
+    /// whole map ([`crate::MapRelocaliser`]).
     fn relocalise(&self, map: &Map, frame: &mut TrackedFrame) {
+        let Some(reference) = self.reference else {
+            return;
+        };
         let seed = frame.features.id.0;
         let min_inliers = self.config.relocalisation_min_inliers;
-        if let Some(found) = relocalise(map, &frame.features, &self.camera, min_inliers, seed) {
+        let points = map.place_points(reference);
+        if let Some(found) = relocalise(
+            map,
+            &points,
+            &frame.features,
+            &self.camera,
+            min_inliers,
+            seed,
+        ) {
             frame.camera_from_world = found.camera_from_world;
             frame.point_ids = found.point_ids;
             frame.inliers.points = found.inliers;

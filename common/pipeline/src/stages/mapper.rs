@@ -1,5 +1,7 @@
 //! `mapper`: owns the map; turns each keyframe request into a keyframe with local
-//! mapping (landmarks, fusion, local BA, culling) and answers with the map. The map it
+//! mapping (landmarks, fusion, local BA, culling) and answers with the map; a
+//! relocalisation request (the tracker is lost) is answered with the map and the
+//! frame's pose when the whole map holds its place. The map it
 //! sends is also its checkpoint, which a restarted mapper (and tracker) resumes from.
 //! With loop closing on, the map of each keyframe also goes to the loop stage, and the
 //! loop corrections it sends back are applied between keyframes; in lockstep the
@@ -14,7 +16,7 @@ use gfs_ipc::{
     encode_message, topics,
 };
 use gfs_odometry::map::Map;
-use gfs_odometry::session::{KeyFrameRequest, LoopVerdict, MapUpdate, MappingSession};
+use gfs_odometry::session::{LoopVerdict, MapRequest, MapUpdate, MappingSession};
 use std::time::{Duration, Instant};
 
 /// The checkpoints: the last two maps sent (bincode [`MapUpdate`]s), by the parity of
@@ -97,7 +99,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             loops.take(&mut session, None)?;
         }
         let Some((mut header, request)) =
-            requests.receive_decoded::<KeyFrameRequest>(MAX_VARIABLE_MESSAGE_BYTES)?
+            requests.receive_decoded::<MapRequest>(MAX_VARIABLE_MESSAGE_BYTES)?
         else {
             publisher.update_connections()?;
             if let Some(loops) = &loops {
@@ -107,18 +109,20 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             continue;
         };
         if let Err(e) = request.check() {
-            tracing::warn!("mapper: dropping an inconsistent keyframe request: {e}");
+            tracing::warn!("mapper: dropping an inconsistent request: {e}");
             continue;
         }
         header.mark_received(Stage::Mapper);
         header.mark_started(Stage::Mapper);
         let started = Instant::now();
         let applied_before = session.last_applied();
-        let update = match budget {
-            Some(budget) => session.insert_until(request, &|| {
+        let is_keyframe = matches!(request, MapRequest::KeyFrame(_));
+        let update = match (request, budget) {
+            (MapRequest::Relocalise(request), _) => session.relocalise(&request),
+            (MapRequest::KeyFrame(request), Some(budget)) => session.insert_until(request, &|| {
                 started.elapsed() >= budget || next_keyframe_waits()
             }),
-            None => session.insert(request),
+            (MapRequest::KeyFrame(request), None) => session.insert(request),
         };
         if let Err(e) = encode_message(&update, &mut bytes) {
             tracing::error!(
@@ -129,6 +133,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         header.mark_finished(Stage::Mapper);
         if let Some(loops) = &loops
+            && is_keyframe
             && session.last_applied() > applied_before
         {
             loops.maps.publish_slice(&header, &bytes)?;

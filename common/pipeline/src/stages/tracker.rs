@@ -1,8 +1,10 @@
 //! `tracker`: joins the points, lines and Manhattan axes of each frame (and its planes
 //! and depth grid when `[tracking] use_planes` / `use_depth_alignment`), tracks it
-//! (the tracking half of the odometry), asks the mapper for keyframes and publishes the
-//! pose. Lockstep: a keyframe's pose is published after the mapper answered, as the
-//! in-process odometry does, so both give the same trajectory.
+//! (the tracking half of the odometry), asks the mapper for keyframes (and, when lost, to
+//! relocalise the frame in the whole map) and publishes the pose. Lockstep: the pose of
+//! a frame that asked is published after the mapper answered, as the in-process
+//! odometry does, so both give the same trajectory; in realtime a relocalisation's
+//! answer comes frames later and tracking goes on from the frame it found.
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
 use super::join::{FrameJoin, Joined, Part};
@@ -13,7 +15,7 @@ use gfs_ipc::{
     MAX_VARIABLE_MESSAGE_BYTES, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
     decode_message, encode_message, topics,
 };
-use gfs_odometry::session::{MapUpdate, TrackingCheckpoint, TrackingSession};
+use gfs_odometry::session::{MapRequest, MapUpdate, TrackingCheckpoint, TrackingSession};
 use gfs_odometry::{FrameSurfaces, TrackingStatus};
 use std::time::Instant;
 
@@ -110,7 +112,11 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             (session.skip(id, timestamp), None, None)
         } else {
             match session.process(features) {
-                Ok(out) => (out.pose, out.keyframe, out.covariance),
+                Ok(out) => {
+                    let request = (out.keyframe.map(MapRequest::KeyFrame))
+                        .or(out.relocalisation.map(MapRequest::Relocalise));
+                    (out.pose, request, out.covariance)
+                }
                 Err(e) => {
                     tracing::warn!("tracker: {e}; the pose is predicted");
                     (session.skip(id, timestamp), None, None)
@@ -120,11 +126,11 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         if incomplete && pose.status == TrackingStatus::Tracked {
             pose.status = TrackingStatus::Degraded;
         }
-        let keyframe = request.is_some();
+        let keyframe = matches!(request, Some(MapRequest::KeyFrame(_)));
         if let Some(request) = request {
             let mut bytes = Vec::new();
             if let Err(e) = encode_message(&request, &mut bytes) {
-                tracing::error!(frame = %id, "tracker: cannot encode the keyframe: {e}");
+                tracing::error!(frame = %id, "tracker: cannot encode the request: {e}");
             } else {
                 ports.keyframes.publish_slice(&header, &bytes)?;
                 ctx.requested(id.0);
@@ -140,6 +146,11 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                 };
                 header.merge_stamps(&mapper);
             }
+        }
+        // Lockstep: this frame, found in the whole map; realtime: an earlier one, whose
+        // pose went out already.
+        if let Some(found) = session.take_relocalised().filter(|p| p.id == id) {
+            pose = found;
         }
         header.mark_finished(Stage::Tracker);
         let predicted = session.predicted_quaternion();
