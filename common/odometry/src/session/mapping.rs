@@ -1,11 +1,12 @@
-//! The mapping half of the odometry (the `mapper` service): owns the map, turns keyframe
-//! requests into keyframes with local mapping, and answers each with the map.
+//! The mapping half of the odometry (the `mapper` service): owns the global map, turns
+//! keyframe requests into keyframes with local mapping, and answers each with the
+//! tracker's neighbourhood of it; the whole map is its checkpoint.
 
 use super::messages::{KeyFrameRequest, MapUpdate, MapUpdateRef};
 use crate::config::OdometryConfig;
 use crate::loop_closing::{LoopCloser, LoopClosure, LoopCorrection, apply_correction};
 use crate::manhattan::WorldManhattan;
-use crate::map::Map;
+use crate::map::{Map, NeighbourhoodBounds};
 use crate::mapper::Mapper;
 use crate::matching::ScalePyramid;
 use gfs_core::camera::PinholeCamera;
@@ -23,6 +24,7 @@ pub struct MappingSession {
     manhattan: WorldManhattan,
     last_applied: u64,
     last_keyframe: Option<KeyFrameId>,
+    neighbourhood: NeighbourhoodBounds,
 }
 
 impl MappingSession {
@@ -44,6 +46,11 @@ impl MappingSession {
             map: Map::default(),
             last_applied: 0,
             last_keyframe: None,
+            neighbourhood: NeighbourhoodBounds {
+                keyframes: config.mapping.tracker_keyframes,
+                view_radius_m: config.tracking.view_radius_m,
+                view_angle_rad: config.tracking.view_angle_deg.to_radians(),
+            },
         }
     }
 
@@ -60,7 +67,7 @@ impl MappingSession {
         Self::new(&config, camera, scale_factor, levels)
     }
 
-    /// The map.
+    /// The global map.
     pub fn map(&self) -> &Map {
         &self.map
     }
@@ -77,8 +84,8 @@ impl MappingSession {
 
     /// Makes the request's frame a keyframe and runs local mapping, unless a request
     /// with this number was applied already (a request sent again after a restart).
-    /// Returns the map to send back.
-    pub fn insert(&mut self, request: KeyFrameRequest) -> MapUpdateRef<'_> {
+    /// Returns the tracker's map to send back ([`Self::update`]).
+    pub fn insert(&mut self, request: KeyFrameRequest) -> MapUpdate {
         self.insert_until(request, &|| false)
     }
 
@@ -89,7 +96,7 @@ impl MappingSession {
         &mut self,
         mut request: KeyFrameRequest,
         stop: &dyn Fn() -> bool,
-    ) -> MapUpdateRef<'_> {
+    ) -> MapUpdate {
         if request.seq > self.last_applied {
             if request.reset {
                 self.map.clear_keyframes();
@@ -155,8 +162,34 @@ impl MappingSession {
         true
     }
 
-    /// The map as it stands, answering the last request applied.
-    pub fn update(&self) -> MapUpdateRef<'_> {
+    /// The tracker's map answering the last request applied: the neighbourhood of its
+    /// keyframe ([`Self::update_around`]).
+    pub fn update(&self) -> MapUpdate {
+        match self.last_keyframe {
+            Some(kf) => self.update_around(kf),
+            None => self.checkpoint().to_owned(),
+        }
+    }
+
+    /// The tracker's map around keyframe `centre`, answering the last request applied:
+    /// `centre`, the keyframes sharing its view, those covisible with it and their
+    /// neighbours, at most `[mapping] tracker_keyframes`, with their landmarks
+    /// ([`Map::neighbourhood_of`]). A `centre` not in the map gives a map without
+    /// keyframes.
+    pub fn update_around(&self, centre: KeyFrameId) -> MapUpdate {
+        let keep = self.map.neighbourhood_of(centre, &self.neighbourhood);
+        MapUpdate {
+            seq: self.last_applied,
+            keyframe: self.last_keyframe.filter(|kf| keep.contains(kf)),
+            map: self.map.neighbourhood(&keep),
+            manhattan: self.manhattan.clone(),
+            recent_points: Vec::new(),
+        }
+    }
+
+    /// The whole map with what a restarted mapping half needs to go on (its checkpoint;
+    /// also what the loop stage searches).
+    pub fn checkpoint(&self) -> MapUpdateRef<'_> {
         MapUpdateRef {
             seq: self.last_applied,
             keyframe: self.last_keyframe,
@@ -166,7 +199,7 @@ impl MappingSession {
         }
     }
 
-    /// Resumes from the last map the old mapper sent (its checkpoint).
+    /// Resumes from [`Self::checkpoint`] as the old mapping half saved it.
     pub fn restore(&mut self, update: MapUpdate) {
         self.last_applied = update.seq;
         self.last_keyframe = update.keyframe;

@@ -29,6 +29,12 @@ pub struct InlineOutcome {
     pub tracking_blocks: Vec<Summary>,
     /// Keyframes in the map at the end.
     pub keyframes: usize,
+    /// Keyframes of the tracker's map (the neighbourhood of the last map update) at
+    /// the end.
+    pub tracker_keyframes: usize,
+    /// Bincode bytes of the tracker's map and of the whole map at the end (`None`
+    /// when larger than a message may be).
+    pub map_bytes: Option<(usize, usize)>,
     /// True when SIGINT / SIGTERM stopped the run: `poses` holds the frames done.
     pub interrupted: bool,
 }
@@ -125,8 +131,18 @@ pub fn run(
         tracking_blocks: times.tracking_blocks(),
         timings: times.summarise(),
         keyframes: odometry.map().keyframe_count(),
+        tracker_keyframes: odometry.tracking().map().keyframe_count(),
+        map_bytes: map_bytes(&odometry),
         interrupted,
     })
+}
+
+/// Bincode bytes of the tracker's map and of the whole map.
+fn map_bytes(odometry: &Odometry) -> Option<(usize, usize)> {
+    let mut buf = Vec::new();
+    let tracker = gfs_ipc::encode_message(odometry.tracking().map(), &mut buf).ok()?;
+    let global = gfs_ipc::encode_message(odometry.map(), &mut buf).ok()?;
+    Some((tracker, global))
 }
 
 /// Per-frame milliseconds of each stage.
