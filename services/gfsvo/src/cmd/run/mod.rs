@@ -277,9 +277,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
         if let Some((keyframes, bytes)) = tracker_map {
             object["tracker_map_keyframes"] = keyframes.into();
-            if let Some((tracker, global)) = bytes {
-                object["tracker_map_bytes"] = tracker.into();
-                object["global_map_bytes"] = global.into();
+            if let Some(bytes) = bytes {
+                object["map_bytes"] = serde_json::to_value(bytes)?;
             }
         }
         println!("{object}");
