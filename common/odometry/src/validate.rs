@@ -237,6 +237,16 @@ mod tests {
         let mut c = OdometryConfig::default();
         c.keyframes.point_ratio = 0.0;
         assert_eq!(c.validate().unwrap_err().field, "keyframes.point_ratio");
+        // The safety cap keeps the whole map one message.
+        let mut c = OdometryConfig::default();
+        c.keyframes.max_keyframes = 100_000;
+        assert_eq!(c.validate().unwrap_err().field, "keyframes.max_keyframes");
+        let mut c = OdometryConfig::default();
+        c.mapping.tracker_keyframes = 0;
+        assert_eq!(c.validate().unwrap_err().field, "mapping.tracker_keyframes");
+        let mut c = OdometryConfig::default();
+        c.tracking.view_angle_deg = 200.0;
+        assert_eq!(c.validate().unwrap_err().field, "tracking.view_angle_deg");
         let mut c = OdometryConfig::default();
         c.mapping.ba.inverse_depth_sigma = f64::NAN;
         assert_eq!(
