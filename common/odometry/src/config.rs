@@ -62,6 +62,16 @@ pub struct TrackingConfig {
     pub extension_search_below: usize,
     /// Keyframes of the local map tracked against. Default 20.
     pub local_keyframes: usize,
+    /// Keyframes added to the local map for sharing the predicted view (camera centre
+    /// within `view_radius_m`, optical axis within `view_angle_deg`), closest first, on
+    /// top of the covisible ones: the landmarks of a place come back into the local map
+    /// as soon as the camera looks at it again. 0 turns the view test off. Default 5.
+    pub view_keyframes: usize,
+    /// See `view_keyframes`; also what the mapping half adds to the tracker's
+    /// neighbourhood (`[mapping] tracker_keyframes`), metres. Default 0.5.
+    pub view_radius_m: f64,
+    /// See `view_keyframes`, degrees. Default 30.
+    pub view_angle_deg: f64,
     /// Consecutive untracked frames after which a new local map is started. Default 5.
     pub frames_before_new_map: u32,
     /// Keypoints with depth needed to start a map. Default 100.
@@ -93,6 +103,9 @@ impl Default for TrackingConfig {
             degraded_inliers: 60,
             extension_search_below: 15,
             local_keyframes: 20,
+            view_keyframes: 5,
+            view_radius_m: 0.5,
+            view_angle_deg: 30.0,
             frames_before_new_map: 5,
             min_initial_points: 100,
             close_depth_m: 3.1,
@@ -135,8 +148,14 @@ pub struct KeyframeConfig {
     pub redundant_line_fraction: f32,
     /// Other keyframes that must see a landmark for it to count as redundant. Default 3.
     pub redundant_observers: usize,
-    /// Keyframes kept in memory; the oldest beyond the local window are dropped so
-    /// that memory and time stay flat. Default 60.
+    /// Safety cap on the keyframes of the global map, not its operating bound: the map
+    /// grows with the area explored and redundant keyframes are culled, so on a room
+    /// walked again and again it stays far below this. Beyond it the oldest keyframes
+    /// not covisible with the new one go, so that a run that keeps exploring stays
+    /// within memory and within one message: the whole map is the mapper's checkpoint
+    /// and the loop stage's message, at about 90 KB a keyframe with its landmarks
+    /// (640 x 480, 1000 keypoints), 500 keyframes are about 45 MB of the 64 MB a
+    /// message may hold. Default 500, at most 600.
     pub max_keyframes: usize,
 }
 
@@ -149,7 +168,7 @@ impl Default for KeyframeConfig {
             redundant_point_fraction: 0.9,
             redundant_line_fraction: 0.8,
             redundant_observers: 3,
-            max_keyframes: 60,
+            max_keyframes: 500,
         }
     }
 }
@@ -176,6 +195,11 @@ pub struct MappingConfig {
     pub max_structural_pairs: usize,
     /// Largest Hamming distance for fusing duplicate map points. Default 50.
     pub fuse_max_distance: u32,
+    /// Keyframes of the map sent to the tracker with each keyframe (its neighbourhood,
+    /// `MappingSession::update_around`): the new keyframe, the keyframes covisible with
+    /// it and their neighbours, and those sharing its view (`[tracking] view_radius_m`,
+    /// `view_angle_deg`). Bounds the map update while the global map grows. Default 60.
+    pub tracker_keyframes: usize,
     /// The local BA's iterations, robust thresholds and term weights.
     pub ba: BaConfig,
 }
@@ -191,6 +215,7 @@ impl Default for MappingConfig {
             manhattan_angle_deg: 6.0,
             max_structural_pairs: 2000,
             fuse_max_distance: 50,
+            tracker_keyframes: 60,
             ba: BaConfig::default(),
         }
     }

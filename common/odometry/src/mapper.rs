@@ -418,8 +418,10 @@ impl Mapper {
         }
     }
 
-    /// Keeps memory flat: beyond `max_keyframes`, the oldest keyframes that are not
-    /// covisible with the current one are dropped with the landmarks only they saw.
+    /// The safety cap of the global map (`max_keyframes`; its operating bound is the
+    /// area explored, kept by `cull_keyframes`): beyond it, the oldest keyframes that
+    /// are not covisible with the current one are dropped with the landmarks only they
+    /// saw.
     fn bound_map(&mut self, map: &mut Map, current: KeyFrameId) {
         let excess = map
             .keyframe_count()

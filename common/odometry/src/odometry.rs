@@ -51,9 +51,15 @@ impl Odometry {
         }
     }
 
-    /// The map (for inspection and tests).
+    /// The global map (for inspection and tests).
     pub fn map(&self) -> &Map {
         self.mapping.map()
+    }
+
+    /// The tracking half (for inspection and tests: its map is the neighbourhood the
+    /// mapping half sent last).
+    pub fn tracking(&self) -> &TrackingSession {
+        &self.tracking
     }
 
     /// The loops closed so far.
@@ -111,7 +117,7 @@ impl Odometry {
         let mut mapping = None;
         if let Some(request) = output.keyframe {
             let mapping_start = Instant::now();
-            let update = self.mapping.insert(request).to_owned();
+            let update = self.mapping.insert(request);
             self.tracking.apply(update);
             mapping = Some(mapping_start.elapsed());
         }

@@ -11,6 +11,9 @@ use gfs_optim::BaConfig;
 
 /// Hamming distances are of 256-bit descriptors.
 const DESCRIPTOR_BITS: u64 = 256;
+/// Largest `[keyframes] max_keyframes`: the whole map is one message (the loop stage's,
+/// the mapper's checkpoint) of at most 64 MB, about 700 keyframes of 90 KB.
+const MAX_KEYFRAMES_CAP: usize = 600;
 
 impl OdometryConfig {
     /// Checks every table.
@@ -49,6 +52,8 @@ impl TrackingConfig {
             "at least tracking.min_inliers",
         )?;
         t.at_least("local_keyframes", self.local_keyframes as u64, 1)?;
+        t.positive("view_radius_m", self.view_radius_m)?;
+        t.within("view_angle_deg", self.view_angle_deg, 0.0, 180.0)?;
         t.at_least(
             "frames_before_new_map",
             self.frames_before_new_map.into(),
@@ -130,7 +135,12 @@ impl KeyframeConfig {
             self.redundant_line_fraction.into(),
         )?;
         t.at_least("redundant_observers", self.redundant_observers as u64, 1)?;
-        t.at_least("max_keyframes", self.max_keyframes as u64, 2)
+        t.require(
+            "max_keyframes",
+            self.max_keyframes,
+            (2..=MAX_KEYFRAMES_CAP).contains(&self.max_keyframes),
+            &format!("in [2, {MAX_KEYFRAMES_CAP}]"),
+        )
     }
 }
 
@@ -142,6 +152,7 @@ impl MappingConfig {
     pub fn validate(&self) -> Result<(), FieldError> {
         let t = Table("mapping");
         t.at_least("ba_keyframes", self.ba_keyframes as u64, 1)?;
+        t.at_least("tracker_keyframes", self.tracker_keyframes as u64, 1)?;
         t.within("structural_angle_deg", self.structural_angle_deg, 0.0, 45.0)?;
         t.within("manhattan_angle_deg", self.manhattan_angle_deg, 0.0, 45.0)?;
         t.require(
@@ -226,6 +237,16 @@ mod tests {
         let mut c = OdometryConfig::default();
         c.keyframes.point_ratio = 0.0;
         assert_eq!(c.validate().unwrap_err().field, "keyframes.point_ratio");
+        // The safety cap keeps the whole map one message.
+        let mut c = OdometryConfig::default();
+        c.keyframes.max_keyframes = 100_000;
+        assert_eq!(c.validate().unwrap_err().field, "keyframes.max_keyframes");
+        let mut c = OdometryConfig::default();
+        c.mapping.tracker_keyframes = 0;
+        assert_eq!(c.validate().unwrap_err().field, "mapping.tracker_keyframes");
+        let mut c = OdometryConfig::default();
+        c.tracking.view_angle_deg = 200.0;
+        assert_eq!(c.validate().unwrap_err().field, "tracking.view_angle_deg");
         let mut c = OdometryConfig::default();
         c.mapping.ba.inverse_depth_sigma = f64::NAN;
         assert_eq!(

@@ -213,7 +213,7 @@ fn checks_refuse_exactly_the_inconsistent_messages_and_the_mapper_takes_the_rest
         }
         // What the check lets through must not hurt the mapper, and its answer must
         // pass the tracker's check.
-        let update: MapUpdate = round_trip(&mapper.insert(decoded).to_owned());
+        let update: MapUpdate = round_trip(&mapper.insert(decoded));
         assert_eq!(update.check(), Ok(()), "case {case}");
         accepted += 1;
     }

@@ -33,6 +33,22 @@ impl KeyFrame {
         self.camera_from_world.inverse()
     }
 
+    /// The distance between this keyframe's camera centre and `world_from_camera`'s
+    /// when the two share a view: centres within `radius_m`, optical axes at most
+    /// `angle_rad` apart; `None` otherwise.
+    pub fn view_distance(
+        &self,
+        world_from_camera: &Isometry3<f64>,
+        radius_m: f64,
+        angle_rad: f64,
+    ) -> Option<f64> {
+        let own = self.world_from_camera();
+        let distance = (own.translation.vector - world_from_camera.translation.vector).norm();
+        let axis = |pose: &Isometry3<f64>| pose.rotation * nalgebra::Vector3::z();
+        let facing = axis(&own).dot(&axis(world_from_camera));
+        (distance <= radius_m && facing >= angle_rad.cos()).then_some(distance)
+    }
+
     /// Number of keypoints linked to a map point.
     pub fn tracked_points(&self) -> usize {
         self.point_ids.iter().flatten().count()

@@ -8,6 +8,7 @@ mod correction;
 mod keyframe;
 mod landmark;
 mod line;
+mod neighbourhood;
 mod plane;
 mod point;
 mod retired;
@@ -18,6 +19,7 @@ pub use arena::IdMap;
 pub use keyframe::KeyFrame;
 pub use landmark::{Described, Landmark, LandmarkId, Store};
 pub use line::MapLine;
+pub use neighbourhood::NeighbourhoodBounds;
 pub use plane::{MapPlane, plane_in_world};
 pub use point::MapPoint;
 pub use retired::RetiredKeyFrame;
@@ -30,7 +32,8 @@ pub const COVISIBILITY_MIN_SHARED: u32 = 15;
 
 /// Keyframes, landmarks and their links. Invariant: keyframe `k`'s slot `i` of a kind
 /// holds landmark `l` exactly when `l`'s observations hold `(k, i)`; a landmark without
-/// observations is removed.
+/// observations is removed. A tracker's neighbourhood ([`Map::neighbourhood`]) holds
+/// the first half: its landmarks may be observed by keyframes it does not hold.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Map {
     keyframes: IdMap<KeyFrameId, KeyFrame>,
@@ -44,6 +47,9 @@ pub struct Map {
     retired: IdMap<KeyFrameId, RetiredKeyFrame>,
     /// Loop corrections applied so far.
     corrections: u64,
+    /// See [`Map::closed_through`].
+    #[serde(default)]
+    closed_through: Option<KeyFrameId>,
 }
 
 impl Map {

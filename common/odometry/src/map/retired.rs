@@ -80,8 +80,16 @@ impl Map {
     }
 
     /// Counts a loop correction (the tracker re-anchors its pose when it sees the count
-    /// change).
+    /// change) and records the newest keyframe it made consistent with the loop.
     pub fn count_correction(&mut self) {
         self.corrections += 1;
+        self.closed_through = self.keyframes.keys().max().copied();
+    }
+
+    /// The newest keyframe of the map when the last loop was closed (`None` before the
+    /// first): the keyframes up to it agree with each other around the loop, those made
+    /// since drift from them again until the next loop.
+    pub fn closed_through(&self) -> Option<KeyFrameId> {
+        self.closed_through
     }
 }

@@ -1,6 +1,7 @@
-//! The mapping half of the odometry (the `mapper` service): owns the map, turns keyframe
-//! requests into keyframes with local mapping, finds the frames of relocalisation
-//! requests in the whole map, and answers each request with the map.
+//! The mapping half of the odometry (the `mapper` service): owns the global map, turns
+//! keyframe requests into keyframes with local mapping, finds the frames of
+//! relocalisation requests in the whole map, and answers each request with the
+//! tracker's neighbourhood of it; the whole map is its checkpoint.
 
 use super::messages::{
     KeyFrameRequest, MapUpdate, MapUpdateRef, RelocalisationRequest, Relocalised,
@@ -8,7 +9,7 @@ use super::messages::{
 use crate::config::OdometryConfig;
 use crate::loop_closing::{LoopCloser, LoopClosure, LoopCorrection, apply_correction};
 use crate::manhattan::WorldManhattan;
-use crate::map::Map;
+use crate::map::{Map, NeighbourhoodBounds};
 use crate::map_relocalisation::MapRelocaliser;
 use crate::mapper::Mapper;
 use crate::matching::ScalePyramid;
@@ -32,6 +33,10 @@ pub struct MappingSession {
     /// The answer of the last request applied when it was a relocalisation that found
     /// its frame (sent again with the map to a request sent again).
     relocalised: Option<Relocalised>,
+    /// The keyframe the tracker's map is centred on: the last one made, or the one the
+    /// last lost frame was found against.
+    centre: Option<KeyFrameId>,
+    neighbourhood: NeighbourhoodBounds,
 }
 
 impl MappingSession {
@@ -55,6 +60,12 @@ impl MappingSession {
             last_applied: 0,
             last_keyframe: None,
             relocalised: None,
+            centre: None,
+            neighbourhood: NeighbourhoodBounds {
+                keyframes: config.mapping.tracker_keyframes,
+                view_radius_m: config.tracking.view_radius_m,
+                view_angle_rad: config.tracking.view_angle_deg.to_radians(),
+            },
         }
     }
 
@@ -71,7 +82,7 @@ impl MappingSession {
         Self::new(&config, camera, scale_factor, levels)
     }
 
-    /// The map.
+    /// The global map.
     pub fn map(&self) -> &Map {
         &self.map
     }
@@ -88,8 +99,8 @@ impl MappingSession {
 
     /// Makes the request's frame a keyframe and runs local mapping, unless a request
     /// with this number was applied already (a request sent again after a restart).
-    /// Returns the map to send back.
-    pub fn insert(&mut self, request: KeyFrameRequest) -> MapUpdateRef<'_> {
+    /// Returns the tracker's map to send back ([`Self::update`]).
+    pub fn insert(&mut self, request: KeyFrameRequest) -> MapUpdate {
         self.insert_until(request, &|| false)
     }
 
@@ -100,7 +111,7 @@ impl MappingSession {
         &mut self,
         mut request: KeyFrameRequest,
         stop: &dyn Fn() -> bool,
-    ) -> MapUpdateRef<'_> {
+    ) -> MapUpdate {
         if request.seq > self.last_applied {
             if request.reset {
                 self.map.clear_keyframes();
@@ -131,6 +142,7 @@ impl MappingSession {
             self.relocaliser.sync(&self.map);
             self.last_applied = request.seq;
             self.last_keyframe = Some(kf);
+            self.centre = Some(kf);
             self.relocalised = None;
         }
         self.update()
@@ -140,7 +152,7 @@ impl MappingSession {
     /// among every keyframe, verified geometrically), unless a request with this number
     /// was applied already. The map is not changed. Returns the map to send back, with
     /// the frame's pose when it was found ([`MapUpdate::relocalised`]).
-    pub fn relocalise(&mut self, request: &RelocalisationRequest) -> MapUpdateRef<'_> {
+    pub fn relocalise(&mut self, request: &RelocalisationRequest) -> MapUpdate {
         if request.seq > self.last_applied {
             let features = &request.features;
             let found = self
@@ -162,16 +174,10 @@ impl MappingSession {
             });
             self.last_applied = request.seq;
             self.last_keyframe = None;
+            if let Some(found) = &self.relocalised {
+                self.centre = Some(found.keyframe);
+            }
         }
-        let centre = self.relocalised.as_ref().map(|r| r.keyframe);
-        self.update_around(centre)
-    }
-
-    /// The map to send with a relocalisation's answer, around `centre` (the keyframe the
-    /// frame was found against). The tracker gets the whole map today, which holds it;
-    /// once the tracker gets only a neighbourhood, this is where it is chosen.
-    fn update_around(&self, centre: Option<KeyFrameId>) -> MapUpdateRef<'_> {
-        tracing::debug!(centre = ?centre, "map for a relocalised tracker");
         self.update()
     }
 
@@ -207,8 +213,36 @@ impl MappingSession {
         true
     }
 
-    /// The map as it stands, answering the last request applied.
-    pub fn update(&self) -> MapUpdateRef<'_> {
+    /// The tracker's map answering the last request applied: the neighbourhood of the
+    /// keyframe it made or the keyframe its lost frame was found against
+    /// ([`Self::update_around`]).
+    pub fn update(&self) -> MapUpdate {
+        match self.centre {
+            Some(kf) => self.update_around(kf),
+            None => self.checkpoint().to_owned(),
+        }
+    }
+
+    /// The tracker's map around keyframe `centre`, answering the last request applied:
+    /// `centre`, the keyframes sharing its view, those covisible with it and their
+    /// neighbours, at most `[mapping] tracker_keyframes`, with their landmarks
+    /// ([`Map::neighbourhood_of`]). A `centre` not in the map gives a map without
+    /// keyframes.
+    pub fn update_around(&self, centre: KeyFrameId) -> MapUpdate {
+        let keep = self.map.neighbourhood_of(centre, &self.neighbourhood);
+        MapUpdate {
+            seq: self.last_applied,
+            keyframe: self.last_keyframe.filter(|kf| keep.contains(kf)),
+            map: self.map.neighbourhood(&keep),
+            manhattan: self.manhattan.clone(),
+            recent_points: Vec::new(),
+            relocalised: self.relocalised.clone(),
+        }
+    }
+
+    /// The whole map with what a restarted mapping half needs to go on (its checkpoint;
+    /// also what the loop stage searches).
+    pub fn checkpoint(&self) -> MapUpdateRef<'_> {
         MapUpdateRef {
             seq: self.last_applied,
             keyframe: self.last_keyframe,
@@ -219,7 +253,7 @@ impl MappingSession {
         }
     }
 
-    /// Resumes from the last map the old mapper sent (its checkpoint).
+    /// Resumes from [`Self::checkpoint`] as the old mapping half saved it.
     pub fn restore(&mut self, update: MapUpdate) {
         self.last_applied = update.seq;
         self.last_keyframe = update.keyframe;
@@ -227,6 +261,11 @@ impl MappingSession {
         self.map.canonicalise();
         self.manhattan = update.manhattan;
         self.mapper.restore_recent_points(update.recent_points);
+        self.centre = update
+            .relocalised
+            .as_ref()
+            .map(|r| r.keyframe)
+            .or(update.keyframe);
         self.relocalised = update.relocalised;
         self.relocaliser.sync(&self.map);
     }

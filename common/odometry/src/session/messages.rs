@@ -45,7 +45,10 @@ pub struct TrackedAgainst {
     pub reference_correction: Isometry3<f64>,
 }
 
-/// The mapper's answer to a request: the whole (bounded) map after local mapping.
+/// The mapper's answer to a request: the tracker's neighbourhood of the map after local
+/// mapping ([`crate::session::MappingSession::update_around`]); with the whole map, the
+/// mapper's checkpoint and the loop stage's message
+/// ([`crate::session::MappingSession::checkpoint`]).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct MapUpdate {
     /// The request this answers.
@@ -53,12 +56,12 @@ pub struct MapUpdate {
     /// The keyframe made from the request's frame (`None` when the request was a
     /// duplicate of one already applied).
     pub keyframe: Option<KeyFrameId>,
-    /// The map.
+    /// The map: the tracker's neighbourhood, or the whole map.
     pub map: Map,
     /// The world Manhattan axes after mapping.
     pub manhattan: WorldManhattan,
-    /// The mapper's recently created points still on probation: not used by the
-    /// tracker, but part of the mapper's checkpoint (this message).
+    /// The mapper's recently created points still on probation: part of the mapper's
+    /// checkpoint, empty in the tracker's neighbourhood.
     pub recent_points: Vec<MapPointId>,
     /// The lost frame found in the map, when this answers a [`RelocalisationRequest`]
     /// that succeeded.

@@ -30,7 +30,7 @@ fn step(
         .process(scene.features(k, &truth(k)))
         .expect("consistent features");
     if let Some(request) = &out.keyframe {
-        let update = mapping.insert(request.clone()).to_owned();
+        let update = mapping.insert(request.clone());
         assert!(
             tracking.apply(update),
             "the answer to request {}",
@@ -58,7 +58,7 @@ fn the_first_frame_with_depth_starts_the_map_and_its_answer_sets_the_reference()
         tracking.needs_map(),
         "nothing to track against before the answer"
     );
-    let update = mapping.insert(request).to_owned();
+    let update = mapping.insert(request);
     assert_eq!((update.seq, mapping.map().point_count()), (1, 200));
     assert!(tracking.apply(update));
     assert_eq!(tracking.pending_request(), None);
@@ -108,8 +108,8 @@ fn a_request_sent_again_is_applied_once() {
         .expect("features")
         .keyframe
         .expect("first keyframe");
-    let first = mapping.insert(request.clone()).to_owned();
-    let again = mapping.insert(request).to_owned();
+    let first = mapping.insert(request.clone());
+    let again = mapping.insert(request);
     assert_eq!((again.seq, again.keyframe), (first.seq, first.keyframe));
     assert_eq!(mapping.map().keyframe_count(), 1);
     assert!(tracking.apply(first));
@@ -161,7 +161,7 @@ fn a_restored_tracker_goes_on_as_the_one_it_replaces() {
     let (checkpoint, _): (TrackingCheckpoint, usize) =
         bincode::serde::decode_from_slice(&bytes, config).expect("decode");
     let (mut restored, _) = halves();
-    restored.restore(checkpoint, Some(mapping.update().to_owned()));
+    restored.restore(checkpoint, Some(mapping.update()));
     assert_eq!(restored.state(), tracking.state());
     for k in 5..8 {
         let a = tracking
@@ -177,7 +177,7 @@ fn a_restored_tracker_goes_on_as_the_one_it_replaces() {
                 (ra.seq, ra.sightings.clone()),
                 (rb.seq, rb.sightings.clone())
             );
-            let update = mapping.insert(ra).to_owned();
+            let update = mapping.insert(ra);
             assert!(tracking.apply(update.clone()) && restored.apply(update));
         }
     }
@@ -206,7 +206,7 @@ fn a_local_ba_stopped_at_once_still_makes_the_keyframe() {
         match out.keyframe {
             Some(request) if request.seq == 1 => {
                 stopped.insert(request.clone());
-                assert!(tracking.apply(full.insert(request).to_owned()));
+                assert!(tracking.apply(full.insert(request)));
             }
             Some(request) => {
                 second = Some(request);
@@ -217,13 +217,11 @@ fn a_local_ba_stopped_at_once_still_makes_the_keyframe() {
     }
     let request = second.expect("a second keyframe request within 60 frames");
     let asked = std::cell::Cell::new(0);
-    let update = stopped
-        .insert_until(request.clone(), &|| {
-            asked.set(asked.get() + 1);
-            true
-        })
-        .to_owned();
-    let reference = full.insert(request).to_owned();
+    let update = stopped.insert_until(request.clone(), &|| {
+        asked.set(asked.get() + 1);
+        true
+    });
+    let reference = full.insert(request);
     assert!(asked.get() >= 1, "the BA asked whether to stop");
     assert_eq!(
         (update.seq, update.keyframe),
@@ -271,7 +269,7 @@ fn a_request_tracked_before_a_correction_goes_into_the_map_corrected() {
         }
     };
     let tracked = request.frame.camera_from_world.inverse();
-    let update = mapping.insert(request).to_owned();
+    let update = mapping.insert(request);
     let kf = update.keyframe.expect("a keyframe");
     let inserted = update
         .map
@@ -318,7 +316,7 @@ fn a_lost_frame_is_found_through_the_mapping_half_when_the_trackers_map_lacks_it
         restored.pending_request(),
         Some((request.seq, gfs_core::ids::FrameId(20)))
     );
-    let update = mapping.relocalise(&request).to_owned();
+    let update = mapping.relocalise(&request);
     let found = update.relocalised.clone().expect("found in the whole map");
     assert_eq!(update.check(), Ok(()));
     assert!(restored.apply(update));
@@ -335,11 +333,11 @@ fn a_lost_frame_is_found_through_the_mapping_half_when_the_trackers_map_lacks_it
     assert!(restored.take_relocalised().is_none(), "taken once");
     // The request sent again (a restarted tracker), to this mapping half or to one
     // restarted from the map it sent: the same answer, nothing new.
-    let again = mapping.relocalise(&request).to_owned();
+    let again = mapping.relocalise(&request);
     assert_eq!(again.relocalised.as_ref(), Some(&found));
     let (_, mut restarted) = halves();
-    restarted.restore(again.clone());
-    let from_restarted = restarted.relocalise(&request).to_owned();
+    restarted.restore(mapping.checkpoint().to_owned());
+    let from_restarted = restarted.relocalise(&request);
     assert_eq!(
         (from_restarted.seq, from_restarted.relocalised),
         (request.seq, Some(found))
@@ -353,4 +351,43 @@ fn a_lost_frame_is_found_through_the_mapping_half_when_the_trackers_map_lacks_it
     assert_eq!(out.pose.status, TrackingStatus::Tracked);
     let error = out.pose.world_from_camera * next;
     assert!(error.translation.vector.norm() < 1e-3, "{error}");
+}
+
+#[test]
+fn the_tracker_gets_a_bounded_neighbourhood_while_the_global_map_grows() {
+    let mut config = OdometryConfig::default();
+    config.mapping.tracker_keyframes = 3;
+    config.keyframes.max_frames = 4;
+    // Nothing redundant: every keyframe stays in the global map.
+    config.keyframes.redundant_observers = 1000;
+    let mut tracking =
+        TrackingSession::new(config.clone(), camera(), 1.2, 8, &GridConfig::default());
+    let mut mapping = MappingSession::new(&config, camera(), 1.2, 8);
+    let scene = Scene::new(200, 20);
+    let mut largest = 0;
+    for k in 0..60 {
+        let out = tracking
+            .process(scene.features(k, &truth(k)))
+            .expect("consistent features");
+        assert!(out.pose.status.is_tracked(), "frame {k}");
+        if let Some(request) = out.keyframe {
+            let update = mapping.insert(request);
+            let kf = update.keyframe.expect("the new keyframe");
+            assert!(update.map.keyframe(kf).is_some(), "{kf:?} not sent");
+            assert!(update.recent_points.is_empty());
+            largest = largest.max(update.map.keyframe_count());
+            assert!(tracking.apply(update));
+        }
+    }
+    let global = mapping.map().keyframe_count();
+    println!("global map {global} keyframes, tracker's map at most {largest}");
+    assert!(global >= 10, "{global} keyframes");
+    assert_eq!(largest, 3);
+    assert!(tracking.map().keyframe_count() <= 3);
+    // The whole map is the checkpoint; a neighbourhood can be centred anywhere.
+    assert_eq!(mapping.checkpoint().map.keyframe_count(), global);
+    let first = mapping.map().keyframe_ids()[0];
+    let around_first = mapping.update_around(first);
+    assert!(around_first.map.keyframe(first).is_some());
+    assert!(around_first.map.keyframe_count() <= 3);
 }

@@ -179,9 +179,14 @@ impl TrackingSession {
         })
     }
 
-    /// The map the tracker tracks against.
+    /// The map the tracker tracks against (the neighbourhood the mapping half sent).
     pub fn map(&self) -> &Map {
         &self.map
+    }
+
+    /// The keyframes of the last frame's local map.
+    pub fn local_keyframes(&self) -> &[KeyFrameId] {
+        self.tracker.local_keyframes()
     }
 
     /// Where tracking stands.

@@ -1,6 +1,7 @@
 //! Local-map tracking (ORB-SLAM2 `TrackLocalMap`): once a strategy found the pose, the
-//! landmarks of the keyframes around the current matches are projected into the frame,
-//! matched where not matched yet, and the pose is optimised again.
+//! landmarks of the keyframes around the current matches, and of the keyframes that
+//! share the frame's view, are projected into the frame, matched where not matched yet,
+//! and the pose is optimised again.
 
 use super::{TrackedFrame, Tracker};
 use crate::map::{COVISIBILITY_MIN_SHARED, IdMap, Map};
@@ -106,9 +107,12 @@ impl Tracker {
             .flatten()
             .filter_map(|id| map.line(*id))
             .map(|l| &l.observations);
+        // A neighbourhood's landmarks also name keyframes it does not hold.
         for observations in point_obs.chain(line_obs) {
             for (kf, _) in observations {
-                *votes.entry(*kf).or_insert(0) += 1;
+                if map.keyframe(*kf).is_some() {
+                    *votes.entry(*kf).or_insert(0) += 1;
+                }
             }
         }
         let mut ranked: Vec<_> = votes.into_iter().collect();
@@ -123,7 +127,10 @@ impl Tracker {
         let mut i = 0;
         while i < self.local_keyframes.len() && self.local_keyframes.len() < limit {
             let neighbours = map.covisible(self.local_keyframes[i], COVISIBILITY_MIN_SHARED);
-            for (neighbour, _) in neighbours.into_iter().take(NEIGHBOURS_PER_KEYFRAME) {
+            let held = neighbours
+                .into_iter()
+                .filter(|(k, _)| map.keyframe(*k).is_some());
+            for (neighbour, _) in held.take(NEIGHBOURS_PER_KEYFRAME) {
                 if !self.local_keyframes.contains(&neighbour) && self.local_keyframes.len() < limit
                 {
                     self.local_keyframes.push(neighbour);
@@ -135,6 +142,40 @@ impl Tracker {
             && let Some(reference) = self.reference
         {
             self.local_keyframes.push(reference);
+        }
+        self.add_view_keyframes(map, frame);
+    }
+
+    /// Adds the keyframes sharing the frame's view (`[tracking] view_keyframes`, closest
+    /// first): a place the camera comes back to is in the local map at once, whether or
+    /// not its keyframes are covisible with the matches yet. Only keyframes a closed
+    /// loop made consistent ([`Map::closed_through`]): before, an old keyframe carries
+    /// the drift of the loop, and matching its landmarks would take that drift in as a
+    /// jump of the pose and hide the loop from loop closing (which looks for places
+    /// not covisible with the new keyframe). The synthetic 3000-frame loop without
+    /// this condition: no loop found, ATE 0.0088 against 0.0060 m.
+    fn add_view_keyframes(&mut self, map: &Map, frame: &TrackedFrame) {
+        let Some(closed_through) = map.closed_through() else {
+            return;
+        };
+        if self.config.view_keyframes == 0 {
+            return;
+        }
+        map.keyframes_sharing_view(
+            &frame.camera_from_world.inverse(),
+            self.config.view_radius_m,
+            self.config.view_angle_deg.to_radians(),
+            &mut self.view_keyframes,
+        );
+        let mut added = 0;
+        for (_, kf) in &self.view_keyframes {
+            if added == self.config.view_keyframes {
+                break;
+            }
+            if *kf <= closed_through && !self.local_keyframes.contains(kf) {
+                self.local_keyframes.push(*kf);
+                added += 1;
+            }
         }
     }
 }

@@ -77,6 +77,8 @@ pub struct Tracker {
     candidates: Vec<ProjectionCandidate>,
     local_lines: Vec<MapLineId>,
     local_keyframes: Vec<KeyFrameId>,
+    /// Keyframes sharing the frame's view, `(distance, id)` (reused).
+    view_keyframes: Vec<(f64, KeyFrameId)>,
     descriptor_matches: Vec<Option<usize>>,
     ransac: RigidRansac,
     correspondences: Vec<Correspondence>,
@@ -113,6 +115,7 @@ impl Tracker {
             candidates: Vec::new(),
             local_lines: Vec::new(),
             local_keyframes: Vec::new(),
+            view_keyframes: Vec::new(),
             descriptor_matches: Vec::new(),
             ransac: RigidRansac::default(),
             correspondences: Vec::new(),
@@ -126,6 +129,12 @@ impl Tracker {
             config,
             camera,
         }
+    }
+
+    /// The keyframes of the last local map (covisible with the matches, and sharing the
+    /// frame's view).
+    pub fn local_keyframes(&self) -> &[KeyFrameId] {
+        &self.local_keyframes
     }
 
     /// The keyframe the tracker currently refers to.

@@ -1,9 +1,10 @@
-//! `mapper`: owns the map; turns each keyframe request into a keyframe with local
-//! mapping (landmarks, fusion, local BA, culling) and answers with the map; a
-//! relocalisation request (the tracker is lost) is answered with the map and the
-//! frame's pose when the whole map holds its place. The map it
-//! sends is also its checkpoint, which a restarted mapper (and tracker) resumes from.
-//! With loop closing on, the map of each keyframe also goes to the loop stage, and the
+//! `mapper`: owns the global map; turns each keyframe request into a keyframe with local
+//! mapping (landmarks, fusion, local BA, culling) and answers with the tracker's
+//! neighbourhood of it (`MappingSession::update`), which a restarted tracker resumes
+//! from; a relocalisation request (the tracker is lost) is answered with the
+//! neighbourhood of the keyframe the whole map found the frame against, and the frame's
+//! pose. Its own checkpoint is the whole map (`MappingSession::checkpoint`). With loop
+//! closing on, the whole map of each keyframe also goes to the loop stage, and the
 //! loop corrections it sends back are applied between keyframes; in lockstep the
 //! mapper waits for the verdict on each keyframe before answering (up to the feature
 //! deadline, so that a dead loop stage cannot hang the run), as the inline odometry
@@ -19,12 +20,17 @@ use gfs_odometry::map::Map;
 use gfs_odometry::session::{LoopVerdict, MapRequest, MapUpdate, MappingSession};
 use std::time::{Duration, Instant};
 
-/// The checkpoints: the last two maps sent (bincode [`MapUpdate`]s), by the parity of
-/// the request they answer, so that a restarted tracker finds the one it tracked
-/// against even when the mapper answered its last request after it died.
+/// The tracker's checkpoints: the last two maps sent to it (bincode [`MapUpdate`]s of
+/// its neighbourhood), by the parity of the request they answer, so that a restarted
+/// tracker finds the one it tracked against even when the mapper answered its last
+/// request after it died.
 pub const MAP_CHECKPOINTS: [&str; 2] = ["map.0.bin", "map.1.bin"];
 
-/// The maps in the checkpoints, newest first.
+/// The mapper's checkpoint: the whole map after the last request applied (bincode
+/// [`MapUpdate`]).
+pub const GLOBAL_MAP_CHECKPOINT: &str = "global_map.bin";
+
+/// The tracker's maps in the checkpoints, newest first.
 ///
 /// # Errors
 /// [`StateError`] when a checkpoint exists but cannot be read.
@@ -47,9 +53,8 @@ pub fn saved_maps(state: &StateDir) -> Result<Vec<MapUpdate>, StateError> {
 /// # Errors
 /// [`StateError`] when a checkpoint exists but cannot be read.
 pub fn last_saved_map(state: &StateDir) -> Result<Option<Map>, StateError> {
-    Ok(saved_maps(state)?
-        .into_iter()
-        .next()
+    Ok(state
+        .read::<MapUpdate>(GLOBAL_MAP_CHECKPOINT)?
         .map(|update| update.map))
 }
 
@@ -72,12 +77,16 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         MappingSession::new(&config, camera, scale, levels)
     };
     let state = ctx.state();
-    if let Some(update) = saved_maps(&state)?.into_iter().next() {
-        tracing::info!(
-            request = update.seq,
-            "mapper: resuming from the last map sent"
-        );
-        session.restore(update);
+    match state.read::<MapUpdate>(GLOBAL_MAP_CHECKPOINT)? {
+        Some(update) if update.check().is_ok() => {
+            tracing::info!(request = update.seq, "mapper: resuming from the global map");
+            session.restore(update);
+        }
+        Some(update) => tracing::warn!(
+            "{GLOBAL_MAP_CHECKPOINT}: {}; starting afresh",
+            update.check().unwrap_err()
+        ),
+        None => {}
     }
     let loops = if loop_stage {
         Some(LoopPorts {
@@ -89,7 +98,8 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     };
     let requests = ctx.subscribe::<u8>(topics::KEYFRAME)?;
     let publisher = ctx.publish::<u8>(topics::LOCAL_MAP, TYPICAL_MAP_BYTES)?;
-    let mut bytes = Vec::new();
+    // The tracker's map and the whole map, encoded.
+    let (mut bytes, mut global) = (Vec::new(), Vec::new());
     let budget = (ctx.mode() == Mode::Realtime)
         .then(|| Duration::from_millis(ctx.config().pipeline.realtime_ba_budget_ms));
     // Realtime: yield to the next keyframe (ORB-SLAM2's abort flag) or to the budget.
@@ -127,33 +137,53 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         if let Err(e) = encode_message(&update, &mut bytes) {
             tracing::error!(
                 frame = header.frame_id,
-                "mapper: cannot encode the map: {e}"
+                "mapper: cannot encode the tracker's map: {e}"
             );
             continue;
         }
+        let mut whole = encode_whole(&session, &mut global, header.frame_id);
         header.mark_finished(Stage::Mapper);
         if let Some(loops) = &loops
             && is_keyframe
+            && whole
             && session.last_applied() > applied_before
         {
-            loops.maps.publish_slice(&header, &bytes)?;
+            loops.maps.publish_slice(&header, &global)?;
             if ctx.mode() == Mode::Lockstep
                 && loops.await_verdict(ctx, &mut session, &mut header)?
-                && let Err(e) = encode_message(&session.update(), &mut bytes)
             {
-                tracing::error!(
-                    frame = header.frame_id,
-                    "mapper: cannot encode the corrected map: {e}"
-                );
-                continue;
+                if let Err(e) = encode_message(&session.update(), &mut bytes) {
+                    tracing::error!(
+                        frame = header.frame_id,
+                        "mapper: cannot encode the corrected map: {e}"
+                    );
+                    continue;
+                }
+                whole = encode_whole(&session, &mut global, header.frame_id);
             }
         }
         publisher.publish_slice(&header, &bytes)?;
         ctx.made(header.frame_id);
+        if whole {
+            state.write_bytes(GLOBAL_MAP_CHECKPOINT, &global)?;
+        }
         let name = MAP_CHECKPOINTS[(session.last_applied() % 2) as usize];
         state.write_bytes(name, &bytes)?;
     }
     Ok(())
+}
+
+/// Encodes the whole map (the checkpoint, the loop stage's message) into `bytes`;
+/// false, logged, when it cannot (larger than a message may be: `[keyframes]
+/// max_keyframes` keeps it below).
+fn encode_whole(session: &MappingSession, bytes: &mut Vec<u8>, frame: u64) -> bool {
+    match encode_message(&session.checkpoint(), bytes) {
+        Ok(_) => true,
+        Err(e) => {
+            tracing::error!(frame, "mapper: cannot encode the whole map: {e}");
+            false
+        }
+    }
 }
 
 /// The mapper's ports to the loop stage.

@@ -29,6 +29,12 @@ pub struct InlineOutcome {
     pub tracking_blocks: Vec<Summary>,
     /// Keyframes in the map at the end.
     pub keyframes: usize,
+    /// Keyframes of the tracker's map (the neighbourhood of the last map update) at
+    /// the end.
+    pub tracker_keyframes: usize,
+    /// The tracker's map and the whole map at the end as messages (`None` when
+    /// larger than a message may be).
+    pub map_bytes: Option<MapBytes>,
     /// True when SIGINT / SIGTERM stopped the run: `poses` holds the frames done.
     pub interrupted: bool,
 }
@@ -128,7 +134,39 @@ pub fn run(
         tracking_blocks: times.tracking_blocks(),
         timings: times.summarise(),
         keyframes: odometry.map().keyframe_count(),
+        tracker_keyframes: odometry.tracking().map().keyframe_count(),
+        map_bytes: map_bytes(&odometry),
         interrupted,
+    })
+}
+
+/// The size of the maps as messages, and what the whole map costs the loop stage.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct MapBytes {
+    /// Bincode bytes of the tracker's map.
+    pub tracker: usize,
+    /// Bincode bytes of the whole map.
+    pub global: usize,
+    /// Milliseconds to encode the whole map.
+    pub global_encode_ms: f64,
+    /// Milliseconds to decode it.
+    pub global_decode_ms: f64,
+}
+
+fn map_bytes(odometry: &Odometry) -> Option<MapBytes> {
+    let mut buf = Vec::new();
+    let tracker = gfs_ipc::encode_message(odometry.tracking().map(), &mut buf).ok()?;
+    let start = std::time::Instant::now();
+    let global = gfs_ipc::encode_message(odometry.map(), &mut buf).ok()?;
+    let global_encode_ms = start.elapsed().as_secs_f64() * 1e3;
+    let start = std::time::Instant::now();
+    gfs_ipc::decode_message::<gfs_odometry::map::Map>(&buf, global).ok()?;
+    let global_decode_ms = start.elapsed().as_secs_f64() * 1e3;
+    Some(MapBytes {
+        tracker,
+        global,
+        global_encode_ms,
+        global_decode_ms,
     })
 }
 

@@ -114,6 +114,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let clock = std::time::Instant::now();
 
     let mut tracking_blocks = Vec::new();
+    let mut tracker_map = None;
     let (poses, odometry, loops, processed, timings, keyframes, restarts, covariances) = if args
         .mode
         == RunMode::Inline
@@ -131,6 +132,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
         let timings = Timings::Inline(outcome.timings);
         tracking_blocks = outcome.tracking_blocks;
+        tracker_map = Some((outcome.tracker_keyframes, outcome.map_bytes));
         let processed = outcome.poses.len();
         let covariances = crate::pipeline::Covariances::new();
         (
@@ -278,6 +280,12 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
         if let Some(e) = &odometry_evaluation {
             object["odometry_ate_rmse_m"] = e.ate.stats.rmse.into();
+        }
+        if let Some((keyframes, bytes)) = tracker_map {
+            object["tracker_map_keyframes"] = keyframes.into();
+            if let Some(bytes) = bytes {
+                object["map_bytes"] = serde_json::to_value(bytes)?;
+            }
         }
         println!("{object}");
     } else {
