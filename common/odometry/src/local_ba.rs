@@ -2,7 +2,9 @@
 //! keyframes `K_c` and their points and lines are optimised, the new keyframe and the
 //! other keyframes that see those landmarks (`K_f`) are held fixed; structural pairs
 //! (eq. 11-13), Manhattan associations (eq. 14) and the lines' depth priors are added
-//! for the lines. The result is written back and outlier observations are unlinked.
+//! for the lines; the map planes the keyframes see come with their observations, their
+//! Manhattan axes and the parallel / perpendicular pairs among them. The result is
+//! written back and outlier observations are unlinked.
 
 use crate::config::MappingConfig;
 use crate::manhattan::WorldManhattan;
@@ -14,8 +16,8 @@ use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::MapPlaneId;
 use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
 use gfs_optim::{
-    BaLineObservation, BaLinePrior, BaManhattan, BaPlaneObservation, BaPointObservation, BaPose,
-    BaProblem, BaResult, LocalBundleAdjuster,
+    BaLineObservation, BaLinePrior, BaManhattan, BaPlaneAxis, BaPlaneObservation,
+    BaPointObservation, BaPose, BaProblem, BaResult, LocalBundleAdjuster,
 };
 use nalgebra::{Point3, Vector3};
 
@@ -97,6 +99,9 @@ impl LocalMapBa {
             fixed = problem.poses.iter().filter(|p| p.fixed).count(),
             points = problem.points.len(),
             lines = problem.lines.len(),
+            planes = problem.planes.len(),
+            plane_pairs = problem.plane_parallel.len() + problem.plane_perpendicular.len(),
+            plane_axes = problem.plane_axes.len(),
             point_outliers = inliers.point_observations.iter().filter(|i| !**i).count(),
             point_observations = inliers.point_observations.len(),
             initial_cost = self.result.initial_cost,
@@ -268,6 +273,7 @@ impl LocalMapBa {
         }
         self.add_structural_pairs(map, &mut problem);
         self.add_planes(map, &mut problem);
+        self.add_plane_structure(map, &mut problem, manhattan);
         if problem.poses.iter().all(|p| p.fixed) || problem.point_observations.is_empty() {
             return None;
         }
@@ -303,6 +309,59 @@ impl LocalMapBa {
                     inv_sigma2_normal: observation.inv_sigma2_normal,
                     inv_sigma2_offset: observation.inv_sigma2_offset,
                 });
+            }
+        }
+    }
+
+    /// The structural terms of the problem's planes: a plane whose normal is within
+    /// `manhattan_angle_deg` of a world Manhattan axis is tied to it (the mapper turned
+    /// it onto that axis; the term keeps the BA from pulling it off with the keyframes'
+    /// noisy normals), and two planes seen by a same keyframe whose normals are within
+    /// `plane_structure_angle_deg` of parallel or perpendicular form a pair, unless both
+    /// are tied to axes, which already implies it.
+    fn add_plane_structure(&self, map: &Map, problem: &mut BaProblem, manhattan: &WorldManhattan) {
+        if problem.planes.is_empty() || self.config.ba.plane_structure_sigma_deg <= 0.0 {
+            return;
+        }
+        let axis_angle = self.config.manhattan_angle_deg.to_radians();
+        let mut has_axis = vec![false; problem.planes.len()];
+        for (k, (normal, _)) in problem.planes.iter().enumerate() {
+            if let Some(axis) = manhattan
+                .axis_of(normal, axis_angle)
+                .and_then(|a| manhattan.axis(a))
+            {
+                problem.plane_axes.push(BaPlaneAxis { plane: k, axis });
+                has_axis[k] = true;
+            }
+        }
+        let mut plane_index: IdMap<MapPlaneId, usize> = IdMap::default();
+        for (k, id) in self.plane_ids.iter().enumerate() {
+            plane_index.insert(*id, k);
+        }
+        let tolerance = self.config.plane_structure_angle_deg.to_radians().sin();
+        let mut seen = std::collections::BTreeSet::new();
+        let mut members = Vec::new();
+        for kf in self.pose_ids.iter().filter_map(|id| map.keyframe(*id)) {
+            members.clear();
+            members.extend(
+                kf.plane_ids
+                    .iter()
+                    .flatten()
+                    .filter_map(|id| plane_index.get(id).copied()),
+            );
+            for (a, &i) in members.iter().enumerate() {
+                for &j in &members[a + 1..] {
+                    if i == j || (has_axis[i] && has_axis[j]) || !seen.insert((i.min(j), i.max(j)))
+                    {
+                        continue;
+                    }
+                    let (ni, nj) = (&problem.planes[i].0, &problem.planes[j].0);
+                    if ni.cross(nj).norm() < tolerance {
+                        problem.plane_parallel.push((i, j));
+                    } else if ni.dot(nj).abs() < tolerance {
+                        problem.plane_perpendicular.push((i, j));
+                    }
+                }
             }
         }
     }

@@ -66,8 +66,9 @@ pub mod residuals;
 pub mod robust;
 
 pub use ba::{
-    BaConfig, BaError, BaFlags, BaLineObservation, BaLinePrior, BaManhattan, BaPlaneObservation,
-    BaPointObservation, BaPose, BaProblem, BaResult, LocalBundleAdjuster, ONE_DEGREE_INFORMATION,
+    BaConfig, BaError, BaFlags, BaLineObservation, BaLinePrior, BaManhattan, BaPlaneAxis,
+    BaPlaneObservation, BaPointObservation, BaPose, BaProblem, BaResult, LocalBundleAdjuster,
+    ONE_DEGREE_INFORMATION,
 };
 pub use degeneracy::{PoseConstraint, analyse_constraint};
 pub use pose::{
