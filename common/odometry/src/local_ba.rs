@@ -480,7 +480,11 @@ mod tests {
     use super::*;
     use crate::config::OdometryConfig;
     use crate::mapper::Mapper;
-    use crate::testing::{Scene, camera, first_keyframe, pose, relinked, scale, tracked};
+    use crate::testing::{
+        CORNER, Scene, camera, first_keyframe, plane_map, pose, relinked, scale, tracked,
+    };
+    use gfs_planes::ManhattanAxes;
+    use nalgebra::{Isometry3, Rotation3};
 
     #[test]
     fn a_lone_keyframe_has_nothing_to_adjust() {
@@ -537,5 +541,68 @@ mod tests {
         // Alternately vertical and horizontal segments: parallel and perpendicular pairs.
         assert!(!problem.parallel.is_empty() && !problem.perpendicular.is_empty());
         assert!(problem.manhattan.is_empty(), "no world axes known");
+    }
+
+    /// The corner's floor and two walls plus a wall 3 degrees off the first one (x =
+    /// 1.2 and a plane through x = 2 turned 3 degrees about y), as the BA's planes.
+    fn corner_and_a_turned_wall(config: &OdometryConfig, manhattan: &WorldManhattan) -> BaProblem {
+        let turn = 3f64.to_radians();
+        let mut planes = CORNER.to_vec();
+        planes.push(([turn.cos(), 0.0, turn.sin()], 2.0));
+        let (map, kf) = plane_map(&planes);
+        let mut ba = LocalMapBa::new(
+            config.mapping.clone(),
+            camera(),
+            scale(),
+            PlaneTrackingConfig::default(),
+        );
+        let mut problem = BaProblem::new(camera());
+        problem.poses.push(BaPose {
+            camera_from_world: Isometry3::identity(),
+            fixed: true,
+        });
+        ba.pose_ids.push(kf);
+        ba.add_planes(&map, &mut problem);
+        ba.add_plane_structure(&map, &mut problem, manhattan);
+        problem
+    }
+
+    #[test]
+    fn planes_near_parallel_or_perpendicular_pair_up_and_planes_near_an_axis_are_tied_to_it() {
+        let config = OdometryConfig::default();
+        let problem = corner_and_a_turned_wall(&config, &WorldManhattan::new(false));
+        assert_eq!(problem.planes.len(), 4);
+        assert!(problem.plane_axes.is_empty(), "no world axes known");
+        // The two x walls are 3 degrees from parallel (gate 5); every other pair is
+        // perpendicular within 3 degrees.
+        assert_eq!(problem.plane_parallel, vec![(1, 3)]);
+        assert_eq!(problem.plane_perpendicular.len(), 5);
+
+        // With the world axes known, all four planes are within 6 degrees of an axis:
+        // tied to it, and no pair is left (the axes imply them).
+        let mut manhattan = WorldManhattan::new(true);
+        let seen = ManhattanAxes {
+            rotation: Rotation3::identity(),
+            observed: [true, true, true],
+            support: [0.4, 0.4, 0.2],
+            confidence: 1.0,
+        };
+        manhattan.observe(&Isometry3::identity(), &seen);
+        let problem = corner_and_a_turned_wall(&config, &manhattan);
+        let tied: Vec<usize> = problem.plane_axes.iter().map(|a| a.plane).collect();
+        assert_eq!(tied, vec![0, 1, 2, 3]);
+        assert!(problem.plane_parallel.is_empty() && problem.plane_perpendicular.is_empty());
+
+        // A 2-degree gate leaves out the turned wall's pairs with the two walls (3
+        // degrees off); it stays square to the floor. Sigma 0 adds no term.
+        let mut narrow = config.clone();
+        narrow.mapping.plane_structure_angle_deg = 2.0;
+        let problem = corner_and_a_turned_wall(&narrow, &WorldManhattan::new(false));
+        assert!(problem.plane_parallel.is_empty());
+        assert_eq!(problem.plane_perpendicular.len(), 4);
+        let mut off = config;
+        off.mapping.ba.plane_structure_sigma_deg = 0.0;
+        let problem = corner_and_a_turned_wall(&off, &manhattan);
+        assert!(problem.plane_axes.is_empty() && problem.plane_parallel.is_empty());
     }
 }
