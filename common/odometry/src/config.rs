@@ -164,6 +164,9 @@ pub struct MappingConfig {
     pub ba_keyframes: usize,
     /// Keyframes held fixed around the optimised ones (at most). Default 10.
     pub ba_fixed_keyframes: usize,
+    /// A keyframe with fewer point observations than this in a local BA is held fixed
+    /// there (a keyframe of a depth / planes-only frame); 0 holds none. Default 0.
+    pub ba_min_keyframe_points: usize,
     /// At least this many closest keypoints get map points at keyframe creation, even
     /// beyond `close_depth_m`. Default 100 (ORB-SLAM2).
     pub min_new_points: usize,
@@ -191,6 +194,7 @@ impl Default for MappingConfig {
             local_ba: true,
             ba_keyframes: 10,
             ba_fixed_keyframes: 10,
+            ba_min_keyframe_points: 0,
             min_new_points: 100,
             structural_angle_deg: 3.0,
             manhattan_angle_deg: 6.0,

@@ -271,6 +271,7 @@ impl LocalMapBa {
                 });
             }
         }
+        hold_keyframes_with_few_points(&mut problem, self.config.ba_min_keyframe_points);
         self.add_structural_pairs(map, &mut problem);
         self.add_planes(map, &mut problem);
         self.add_plane_structure(map, &mut problem, manhattan);
@@ -475,6 +476,22 @@ impl LocalMapBa {
     }
 }
 
+/// Holds fixed every free keyframe with fewer than `min_points` point observations in
+/// the problem: a keyframe of a frame tracked on depth and planes alone has nothing in
+/// the BA along the direction its planes leave free.
+fn hold_keyframes_with_few_points(problem: &mut BaProblem, min_points: usize) {
+    if min_points == 0 {
+        return;
+    }
+    let mut count = vec![0usize; problem.poses.len()];
+    for o in &problem.point_observations {
+        count[o.pose] += 1;
+    }
+    for (pose, n) in problem.poses.iter_mut().zip(count) {
+        pose.fixed |= n < min_points;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -604,5 +621,33 @@ mod tests {
         off.mapping.ba.plane_structure_sigma_deg = 0.0;
         let problem = corner_and_a_turned_wall(&off, &manhattan);
         assert!(problem.plane_axes.is_empty() && problem.plane_parallel.is_empty());
+    }
+
+    #[test]
+    fn a_keyframe_with_few_point_observations_is_held_only_when_asked() {
+        let mut problem = BaProblem::new(camera());
+        for fixed in [true, false, false] {
+            problem.poses.push(BaPose {
+                camera_from_world: Isometry3::identity(),
+                fixed,
+            });
+        }
+        problem.points.push(Vector3::new(0.0, 0.0, 2.0));
+        for (pose, n) in [(0, 50), (1, 5), (2, 40)] {
+            for _ in 0..n {
+                problem.point_observations.push(BaPointObservation {
+                    pose,
+                    point: 0,
+                    uv: nalgebra::Vector2::new(319.5, 239.5),
+                    inv_sigma2: 1.0,
+                    depth: 2.0,
+                });
+            }
+        }
+        hold_keyframes_with_few_points(&mut problem, 0);
+        let fixed = |p: &BaProblem| p.poses.iter().map(|p| p.fixed).collect::<Vec<_>>();
+        assert_eq!(fixed(&problem), vec![true, false, false]);
+        hold_keyframes_with_few_points(&mut problem, 30);
+        assert_eq!(fixed(&problem), vec![true, true, false]);
     }
 }
