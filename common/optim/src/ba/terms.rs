@@ -248,7 +248,7 @@ impl<'a> Terms<'a> {
     fn plane_perpendicular_chi2(&self, v: &Values, k: usize) -> Option<f64> {
         let (i, j) = self.problem.plane_perpendicular[k];
         let e = PerpendicularPlanes.error(&v.planes[i].0, &v.planes[j].0);
-        (i != j).then(|| self.plane_structure_weight * e * e)
+        (i != j).then_some(self.plane_structure_weight * e * e)
     }
 
     fn plane_axis_chi2(&self, v: &Values, k: usize) -> Option<f64> {
