@@ -183,6 +183,9 @@ pub struct MappingConfig {
     pub ba_keyframes: usize,
     /// Keyframes held fixed around the optimised ones (at most). Default 10.
     pub ba_fixed_keyframes: usize,
+    /// A keyframe with fewer point observations than this in a local BA is held fixed
+    /// there (a keyframe of a depth / planes-only frame); 0 holds none. Default 0.
+    pub ba_min_keyframe_points: usize,
     /// At least this many closest keypoints get map points at keyframe creation, even
     /// beyond `close_depth_m`. Default 100 (ORB-SLAM2).
     pub min_new_points: usize,
@@ -191,6 +194,11 @@ pub struct MappingConfig {
     pub structural_angle_deg: f64,
     /// Angle under which a map line is tied to a Manhattan axis, degrees. Default 6.
     pub manhattan_angle_deg: f64,
+    /// Angle under which two map planes of the local BA seen by a same keyframe count
+    /// as parallel / perpendicular, degrees (a pair of planes both tied to Manhattan
+    /// axes within `manhattan_angle_deg` is left to those axis terms). Default 5: a
+    /// plane fitted by one keyframe is 1-3 degrees off (depth noise at 2-4 m).
+    pub plane_structure_angle_deg: f64,
     /// Most parallel / perpendicular pairs put into one local BA. Default 2000.
     pub max_structural_pairs: usize,
     /// Largest Hamming distance for fusing duplicate map points. Default 50.
@@ -210,9 +218,11 @@ impl Default for MappingConfig {
             local_ba: true,
             ba_keyframes: 10,
             ba_fixed_keyframes: 10,
+            ba_min_keyframe_points: 0,
             min_new_points: 100,
             structural_angle_deg: 3.0,
             manhattan_angle_deg: 6.0,
+            plane_structure_angle_deg: 5.0,
             max_structural_pairs: 2000,
             fuse_max_distance: 50,
             tracker_keyframes: 60,

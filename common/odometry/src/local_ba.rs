@@ -2,7 +2,9 @@
 //! keyframes `K_c` and their points and lines are optimised, the new keyframe and the
 //! other keyframes that see those landmarks (`K_f`) are held fixed; structural pairs
 //! (eq. 11-13), Manhattan associations (eq. 14) and the lines' depth priors are added
-//! for the lines. The result is written back and outlier observations are unlinked.
+//! for the lines; the map planes the keyframes see come with their observations, their
+//! Manhattan axes and the parallel / perpendicular pairs among them. The result is
+//! written back and outlier observations are unlinked.
 
 use crate::config::MappingConfig;
 use crate::manhattan::WorldManhattan;
@@ -14,8 +16,8 @@ use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::MapPlaneId;
 use gfs_core::ids::{KeyFrameId, MapLineId, MapPointId};
 use gfs_optim::{
-    BaLineObservation, BaLinePrior, BaManhattan, BaPlaneObservation, BaPointObservation, BaPose,
-    BaProblem, BaResult, LocalBundleAdjuster,
+    BaLineObservation, BaLinePrior, BaManhattan, BaPlaneAxis, BaPlaneObservation,
+    BaPointObservation, BaPose, BaProblem, BaResult, LocalBundleAdjuster,
 };
 use nalgebra::{Point3, Vector3};
 
@@ -97,6 +99,9 @@ impl LocalMapBa {
             fixed = problem.poses.iter().filter(|p| p.fixed).count(),
             points = problem.points.len(),
             lines = problem.lines.len(),
+            planes = problem.planes.len(),
+            plane_pairs = problem.plane_parallel.len() + problem.plane_perpendicular.len(),
+            plane_axes = problem.plane_axes.len(),
             point_outliers = inliers.point_observations.iter().filter(|i| !**i).count(),
             point_observations = inliers.point_observations.len(),
             initial_cost = self.result.initial_cost,
@@ -266,8 +271,10 @@ impl LocalMapBa {
                 });
             }
         }
+        hold_keyframes_with_few_points(&mut problem, self.config.ba_min_keyframe_points);
         self.add_structural_pairs(map, &mut problem);
         self.add_planes(map, &mut problem);
+        self.add_plane_structure(map, &mut problem, manhattan);
         if problem.poses.iter().all(|p| p.fixed) || problem.point_observations.is_empty() {
             return None;
         }
@@ -303,6 +310,59 @@ impl LocalMapBa {
                     inv_sigma2_normal: observation.inv_sigma2_normal,
                     inv_sigma2_offset: observation.inv_sigma2_offset,
                 });
+            }
+        }
+    }
+
+    /// The structural terms of the problem's planes: a plane whose normal is within
+    /// `manhattan_angle_deg` of a world Manhattan axis is tied to it (the mapper turned
+    /// it onto that axis; the term keeps the BA from pulling it off with the keyframes'
+    /// noisy normals), and two planes seen by a same keyframe whose normals are within
+    /// `plane_structure_angle_deg` of parallel or perpendicular form a pair, unless both
+    /// are tied to axes, which already implies it.
+    fn add_plane_structure(&self, map: &Map, problem: &mut BaProblem, manhattan: &WorldManhattan) {
+        if problem.planes.is_empty() || self.config.ba.plane_structure_sigma_deg <= 0.0 {
+            return;
+        }
+        let axis_angle = self.config.manhattan_angle_deg.to_radians();
+        let mut has_axis = vec![false; problem.planes.len()];
+        for (k, (normal, _)) in problem.planes.iter().enumerate() {
+            if let Some(axis) = manhattan
+                .axis_of(normal, axis_angle)
+                .and_then(|a| manhattan.axis(a))
+            {
+                problem.plane_axes.push(BaPlaneAxis { plane: k, axis });
+                has_axis[k] = true;
+            }
+        }
+        let mut plane_index: IdMap<MapPlaneId, usize> = IdMap::default();
+        for (k, id) in self.plane_ids.iter().enumerate() {
+            plane_index.insert(*id, k);
+        }
+        let tolerance = self.config.plane_structure_angle_deg.to_radians().sin();
+        let mut seen = std::collections::BTreeSet::new();
+        let mut members = Vec::new();
+        for kf in self.pose_ids.iter().filter_map(|id| map.keyframe(*id)) {
+            members.clear();
+            members.extend(
+                kf.plane_ids
+                    .iter()
+                    .flatten()
+                    .filter_map(|id| plane_index.get(id).copied()),
+            );
+            for (a, &i) in members.iter().enumerate() {
+                for &j in &members[a + 1..] {
+                    if i == j || (has_axis[i] && has_axis[j]) || !seen.insert((i.min(j), i.max(j)))
+                    {
+                        continue;
+                    }
+                    let (ni, nj) = (&problem.planes[i].0, &problem.planes[j].0);
+                    if ni.cross(nj).norm() < tolerance {
+                        problem.plane_parallel.push((i, j));
+                    } else if ni.dot(nj).abs() < tolerance {
+                        problem.plane_perpendicular.push((i, j));
+                    }
+                }
             }
         }
     }
@@ -416,12 +476,32 @@ impl LocalMapBa {
     }
 }
 
+/// Holds fixed every free keyframe with fewer than `min_points` point observations in
+/// the problem: a keyframe of a frame tracked on depth and planes alone has nothing in
+/// the BA along the direction its planes leave free.
+fn hold_keyframes_with_few_points(problem: &mut BaProblem, min_points: usize) {
+    if min_points == 0 {
+        return;
+    }
+    let mut count = vec![0usize; problem.poses.len()];
+    for o in &problem.point_observations {
+        count[o.pose] += 1;
+    }
+    for (pose, n) in problem.poses.iter_mut().zip(count) {
+        pose.fixed |= n < min_points;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::config::OdometryConfig;
     use crate::mapper::Mapper;
-    use crate::testing::{Scene, camera, first_keyframe, pose, relinked, scale, tracked};
+    use crate::testing::{
+        CORNER, Scene, camera, first_keyframe, plane_map, pose, relinked, scale, tracked,
+    };
+    use gfs_planes::ManhattanAxes;
+    use nalgebra::{Isometry3, Rotation3};
 
     #[test]
     fn a_lone_keyframe_has_nothing_to_adjust() {
@@ -478,5 +558,96 @@ mod tests {
         // Alternately vertical and horizontal segments: parallel and perpendicular pairs.
         assert!(!problem.parallel.is_empty() && !problem.perpendicular.is_empty());
         assert!(problem.manhattan.is_empty(), "no world axes known");
+    }
+
+    /// The corner's floor and two walls plus a wall 3 degrees off the first one (x =
+    /// 1.2 and a plane through x = 2 turned 3 degrees about y), as the BA's planes.
+    fn corner_and_a_turned_wall(config: &OdometryConfig, manhattan: &WorldManhattan) -> BaProblem {
+        let turn = 3f64.to_radians();
+        let mut planes = CORNER.to_vec();
+        planes.push(([turn.cos(), 0.0, turn.sin()], 2.0));
+        let (map, kf) = plane_map(&planes);
+        let mut ba = LocalMapBa::new(
+            config.mapping.clone(),
+            camera(),
+            scale(),
+            PlaneTrackingConfig::default(),
+        );
+        let mut problem = BaProblem::new(camera());
+        problem.poses.push(BaPose {
+            camera_from_world: Isometry3::identity(),
+            fixed: true,
+        });
+        ba.pose_ids.push(kf);
+        ba.add_planes(&map, &mut problem);
+        ba.add_plane_structure(&map, &mut problem, manhattan);
+        problem
+    }
+
+    #[test]
+    fn planes_near_parallel_or_perpendicular_pair_up_and_planes_near_an_axis_are_tied_to_it() {
+        let config = OdometryConfig::default();
+        let problem = corner_and_a_turned_wall(&config, &WorldManhattan::new(false));
+        assert_eq!(problem.planes.len(), 4);
+        assert!(problem.plane_axes.is_empty(), "no world axes known");
+        // The two x walls are 3 degrees from parallel (gate 5); every other pair is
+        // perpendicular within 3 degrees.
+        assert_eq!(problem.plane_parallel, vec![(1, 3)]);
+        assert_eq!(problem.plane_perpendicular.len(), 5);
+
+        // With the world axes known, all four planes are within 6 degrees of an axis:
+        // tied to it, and no pair is left (the axes imply them).
+        let mut manhattan = WorldManhattan::new(true);
+        let seen = ManhattanAxes {
+            rotation: Rotation3::identity(),
+            observed: [true, true, true],
+            support: [0.4, 0.4, 0.2],
+            confidence: 1.0,
+        };
+        manhattan.observe(&Isometry3::identity(), &seen);
+        let problem = corner_and_a_turned_wall(&config, &manhattan);
+        let tied: Vec<usize> = problem.plane_axes.iter().map(|a| a.plane).collect();
+        assert_eq!(tied, vec![0, 1, 2, 3]);
+        assert!(problem.plane_parallel.is_empty() && problem.plane_perpendicular.is_empty());
+
+        // A 2-degree gate leaves out the turned wall's pairs with the two walls (3
+        // degrees off); it stays square to the floor. Sigma 0 adds no term.
+        let mut narrow = config.clone();
+        narrow.mapping.plane_structure_angle_deg = 2.0;
+        let problem = corner_and_a_turned_wall(&narrow, &WorldManhattan::new(false));
+        assert!(problem.plane_parallel.is_empty());
+        assert_eq!(problem.plane_perpendicular.len(), 4);
+        let mut off = config;
+        off.mapping.ba.plane_structure_sigma_deg = 0.0;
+        let problem = corner_and_a_turned_wall(&off, &manhattan);
+        assert!(problem.plane_axes.is_empty() && problem.plane_parallel.is_empty());
+    }
+
+    #[test]
+    fn a_keyframe_with_few_point_observations_is_held_only_when_asked() {
+        let mut problem = BaProblem::new(camera());
+        for fixed in [true, false, false] {
+            problem.poses.push(BaPose {
+                camera_from_world: Isometry3::identity(),
+                fixed,
+            });
+        }
+        problem.points.push(Vector3::new(0.0, 0.0, 2.0));
+        for (pose, n) in [(0, 50), (1, 5), (2, 40)] {
+            for _ in 0..n {
+                problem.point_observations.push(BaPointObservation {
+                    pose,
+                    point: 0,
+                    uv: nalgebra::Vector2::new(319.5, 239.5),
+                    inv_sigma2: 1.0,
+                    depth: 2.0,
+                });
+            }
+        }
+        hold_keyframes_with_few_points(&mut problem, 0);
+        let fixed = |p: &BaProblem| p.poses.iter().map(|p| p.fixed).collect::<Vec<_>>();
+        assert_eq!(fixed(&problem), vec![true, false, false]);
+        hold_keyframes_with_few_points(&mut problem, 30);
+        assert_eq!(fixed(&problem), vec![true, true, false]);
     }
 }

@@ -155,6 +155,12 @@ impl MappingConfig {
         t.at_least("tracker_keyframes", self.tracker_keyframes as u64, 1)?;
         t.within("structural_angle_deg", self.structural_angle_deg, 0.0, 45.0)?;
         t.within("manhattan_angle_deg", self.manhattan_angle_deg, 0.0, 45.0)?;
+        t.within(
+            "plane_structure_angle_deg",
+            self.plane_structure_angle_deg,
+            0.0,
+            45.0,
+        )?;
         t.require(
             "fuse_max_distance",
             self.fuse_max_distance,
@@ -220,6 +226,13 @@ fn validate_ba(ba: &BaConfig) -> Result<(), FieldError> {
             "finite, >= 0",
         )?;
     }
+    // 0 turns the plane structural terms off; 45 degrees would let any pair pass.
+    t.within(
+        "plane_structure_sigma_deg",
+        ba.plane_structure_sigma_deg,
+        0.0,
+        45.0,
+    )?;
     Ok(())
 }
 

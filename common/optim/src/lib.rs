@@ -16,7 +16,9 @@
 //! chi-square outlier rejection. Local mapping ([`LocalBundleAdjuster`]) also moves the
 //! covisible keyframe poses, the points and the lines, and adds the structural terms
 //! of MSC-VO (eq. 10-14): `|d_i x d_j|` for parallel pairs, `d_i . d_j` for
-//! perpendicular pairs, `|d x a|` for a line and its Manhattan axis `a`.
+//! perpendicular pairs, `|d x a|` for a line and its Manhattan axis `a`; map planes
+//! (unit normal on S2 + offset) add plane-to-plane observations and the same three
+//! structural forms on their normals (`n_i x n_j`, `n_i . n_j`, `n x a`).
 //!
 //! Conventions (see `gfs_core::se3`): optimisers estimate `camera_from_world` and
 //! perturb it on the left, `T ⊕ delta = exp(delta) T`, `delta = [rho; phi]`; pixels
@@ -66,8 +68,9 @@ pub mod residuals;
 pub mod robust;
 
 pub use ba::{
-    BaConfig, BaError, BaFlags, BaLineObservation, BaLinePrior, BaManhattan, BaPlaneObservation,
-    BaPointObservation, BaPose, BaProblem, BaResult, LocalBundleAdjuster, ONE_DEGREE_INFORMATION,
+    BaConfig, BaError, BaFlags, BaLineObservation, BaLinePrior, BaManhattan, BaPlaneAxis,
+    BaPlaneObservation, BaPointObservation, BaPose, BaProblem, BaResult, LocalBundleAdjuster,
+    ONE_DEGREE_INFORMATION,
 };
 pub use degeneracy::{PoseConstraint, analyse_constraint};
 pub use pose::{

@@ -57,6 +57,25 @@ pub struct BaConfig {
     /// Chi-square threshold (and Huber `sqrt`) of a whitened plane-to-plane error of a
     /// keyframe (3 dof, 95 %); default 7.815.
     pub plane_chi2: f64,
+    /// Sigma of the structural terms of map planes, degrees: the angle of a parallel
+    /// or perpendicular plane pair, or of a plane and its Manhattan axis, weighs as
+    /// much as this many degrees of error; default 0.5 (walls and floors are built
+    /// closer to square than one keyframe's plane fit, about 1 degree, measures them);
+    /// 0 turns the terms off. Their
+    /// outlier thresholds are the 95 % chi-square of their degrees of freedom (2 for a
+    /// parallel pair or an axis, 1 for a perpendicular pair).
+    pub plane_structure_sigma_deg: f64,
+}
+
+impl BaConfig {
+    /// Information of a plane structural error, `1 / sin^2(sigma)`; 0 when off.
+    pub fn plane_structure_information(&self) -> f64 {
+        if self.plane_structure_sigma_deg > 0.0 {
+            self.plane_structure_sigma_deg.to_radians().sin().powi(-2)
+        } else {
+            0.0
+        }
+    }
 }
 
 impl Default for BaConfig {
@@ -76,6 +95,7 @@ impl Default for BaConfig {
             perpendicular_chi2: CHI2_1DOF_95,
             manhattan_chi2: CHI2_2DOF_95,
             plane_chi2: CHI2_3DOF_95,
+            plane_structure_sigma_deg: 0.5,
         }
     }
 }

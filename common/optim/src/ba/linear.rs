@@ -11,6 +11,11 @@
 //! symbolic analysis is done once per pass and reused at every LM iteration. This is
 //! the exact Gauss-Newton/LM step, no approximation; its cost grows with the density
 //! of the pair graph, so give each line a few partners rather than all.
+//!
+//! Planes (3 dof) are eliminated as points are, unless a parallel or perpendicular
+//! plane pair couples them: a kept plane fills the upper half of a 6x6 block whose
+//! lower half is an identity coupled to nothing (its step is zero), so that the one
+//! block Cholesky of 6x6 blocks solves it with the poses and the kept lines.
 
 use super::BaError;
 use super::normal::{Linearization, Step};
@@ -33,12 +38,15 @@ type ObsLists = (Vec<usize>, Vec<(usize, usize)>);
 pub(crate) struct ReducedSystem {
     pose_block: Vec<usize>,
     line_block: Vec<usize>,
+    plane_block: Vec<usize>,
     point_used: Vec<bool>,
     line_used: Vec<bool>,
     plane_used: Vec<bool>,
+    /// Used planes outside every plane pair (eliminated, not kept).
+    plane_eliminated: Vec<bool>,
     /// CSR lists of the active observations with a free pose, per point.
     point_obs: ObsLists,
-    /// Same per plane.
+    /// Same per eliminated plane.
     plane_obs: ObsLists,
     /// Same per eliminated line.
     line_obs: ObsLists,
@@ -48,6 +56,9 @@ pub(crate) struct ReducedSystem {
     line_obs_slot: Vec<usize>,
     parallel_slot: Vec<usize>,
     perpendicular_slot: Vec<usize>,
+    plane_obs_slot: Vec<usize>,
+    plane_parallel_slot: Vec<usize>,
+    plane_perpendicular_slot: Vec<usize>,
     factorization: Option<BlockCholesky>,
     slot_values: Vec<Matrix6<f64>>,
     rhs: Vec<f64>,
@@ -135,6 +146,14 @@ fn damped<const N: usize>(
     a
 }
 
+/// A 3x3 block of a kept plane in the top-left corner of a 6x6 slot.
+#[inline]
+fn embed3(m: &Matrix3<f64>) -> Matrix6<f64> {
+    let mut out = Matrix6::zeros();
+    out.fixed_view_mut::<3, 3>(0, 0).copy_from(m);
+    out
+}
+
 /// Writes a 6-vector into block `block` of `rhs`.
 fn set_rhs(rhs: &mut [f64], block: usize, value: &Vector6<f64>) {
     rhs[6 * block..6 * block + 6].copy_from_slice(value.as_slice());
@@ -180,6 +199,38 @@ impl ReducedSystem {
         {
             self.plane_used[o.plane] = true;
         }
+        for (k, m) in p.plane_axes.iter().enumerate() {
+            self.plane_used[m.plane] |= terms.plane_axis_active(flags, k);
+        }
+        self.plane_block.clear();
+        self.plane_block.resize(p.planes.len(), NONE);
+        let plane_pairs = p
+            .plane_parallel
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| terms.plane_parallel_active(flags, k))
+            .chain(
+                p.plane_perpendicular
+                    .iter()
+                    .enumerate()
+                    .filter(|&(k, _)| terms.plane_perpendicular_active(flags, k)),
+            );
+        for (_, &(i, j)) in plane_pairs {
+            for q in [i, j] {
+                if self.plane_block[q] == NONE {
+                    self.plane_block[q] = blocks;
+                    blocks += 1;
+                }
+                self.plane_used[q] = true;
+            }
+        }
+        self.plane_eliminated.clear();
+        let eliminated = self
+            .plane_used
+            .iter()
+            .zip(&self.plane_block)
+            .map(|(&used, &block)| used && block == NONE);
+        self.plane_eliminated.extend(eliminated);
         let pairs = p
             .parallel
             .iter()
@@ -229,11 +280,16 @@ impl ReducedSystem {
             .filter(|&(k, o)| flags.point_observations[k] && pose_block[o.pose] != NONE)
             .map(|(k, o)| (k, o.point, pose_block[o.pose]));
         build_lists(p.points.len(), point_iter, &mut self.point_obs);
+        let plane_block = &self.plane_block;
         let plane_iter = p
             .plane_observations
             .iter()
             .enumerate()
-            .filter(|&(k, o)| flags.plane_observations[k] && pose_block[o.pose] != NONE)
+            .filter(|&(k, o)| {
+                flags.plane_observations[k]
+                    && pose_block[o.pose] != NONE
+                    && plane_block[o.plane] == NONE
+            })
             .map(|(k, o)| (k, o.plane, pose_block[o.pose]));
         build_lists(p.planes.len(), plane_iter, &mut self.plane_obs);
         let line_block = &self.line_block;
@@ -292,12 +348,103 @@ impl ReducedSystem {
             self.perpendicular_slot.push(slot);
         }
 
+        self.analyse_kept_planes(terms, flags);
+
         self.factorization =
             BlockCholesky::analyse(self.blocks, &self.slots).map_err(|reason| BaError::Solver {
                 dimension: 6 * self.blocks,
                 reason,
             })?;
         Ok(())
+    }
+
+    /// Slots of the kept planes: their diagonals, the poses observing them, their pairs.
+    fn analyse_kept_planes(&mut self, terms: &Terms<'_>, flags: &BaFlags) {
+        let p = terms.problem;
+        for q in 0..p.planes.len() {
+            if self.plane_block[q] != NONE {
+                self.slot(self.plane_block[q], self.plane_block[q]);
+            }
+        }
+        self.plane_obs_slot.clear();
+        for (k, o) in p.plane_observations.iter().enumerate() {
+            let (qb, pb) = (self.plane_block[o.plane], self.pose_block[o.pose]);
+            let slot = if flags.plane_observations[k] && qb != NONE && pb != NONE {
+                self.slot(qb, pb)
+            } else {
+                NONE
+            };
+            self.plane_obs_slot.push(slot);
+        }
+        self.plane_parallel_slot.clear();
+        for (k, &(i, j)) in p.plane_parallel.iter().enumerate() {
+            let slot = if terms.plane_parallel_active(flags, k) && i != j {
+                self.slot(self.plane_block[i], self.plane_block[j])
+            } else {
+                NONE
+            };
+            self.plane_parallel_slot.push(slot);
+        }
+        self.plane_perpendicular_slot.clear();
+        for (k, &(i, j)) in p.plane_perpendicular.iter().enumerate() {
+            let slot = if terms.plane_perpendicular_active(flags, k) && i != j {
+                self.slot(self.plane_block[i], self.plane_block[j])
+            } else {
+                NONE
+            };
+            self.plane_perpendicular_slot.push(slot);
+        }
+    }
+
+    /// Adds the kept planes' blocks: the damped diagonal (identity in its unused lower
+    /// half), the pose couplings and the pairs.
+    fn add_kept_planes(&mut self, p: &BaProblem, lin: &Linearization, damping: &Damping) {
+        for q in 0..p.planes.len() {
+            let kept = self.plane_block[q];
+            if kept == NONE {
+                continue;
+            }
+            let h = &lin.h_plane[q];
+            let mut block = embed3(&damped(h, &landmark_scale(h), damping));
+            block
+                .fixed_view_mut::<3, 3>(3, 3)
+                .copy_from(&Matrix3::identity());
+            self.slot_values[self.slot_of[&(kept, kept)]] += block;
+            let g = -lin.g_plane[q];
+            self.rhs[6 * kept..6 * kept + 3].copy_from_slice(g.as_slice());
+        }
+        for k in 0..p.plane_observations.len() {
+            let slot = self.plane_obs_slot[k];
+            if slot != NONE {
+                let mut top = self.slot_values[slot].fixed_view_mut::<3, 6>(0, 0);
+                top += lin.w_plane_obs[k].transpose();
+            }
+        }
+        let pair_lists = [
+            (
+                &p.plane_parallel,
+                &self.plane_parallel_slot,
+                &lin.h_plane_parallel,
+            ),
+            (
+                &p.plane_perpendicular,
+                &self.plane_perpendicular_slot,
+                &lin.h_plane_perpendicular,
+            ),
+        ];
+        for (pairs, slots, h) in pair_lists {
+            for (k, &(i, j)) in pairs.iter().enumerate() {
+                let slot = slots[k];
+                if slot == NONE {
+                    continue;
+                }
+                if self.plane_block[i] > self.plane_block[j] {
+                    self.slot_values[slot] += embed3(&h[k]);
+                } else {
+                    self.slot_values[slot] += embed3(&h[k].transpose());
+                }
+            }
+        }
     }
 
     /// Solves the damped normal equations for the step; returns the decrease of the
@@ -339,7 +486,7 @@ impl ReducedSystem {
             &mut self.slot_values,
         )?;
         Self::eliminate3(
-            &self.plane_used,
+            &self.plane_eliminated,
             &self.plane_obs,
             &lin.h_plane,
             &lin.g_plane,
@@ -420,6 +567,7 @@ impl ReducedSystem {
                 }
             }
         }
+        self.add_kept_planes(p, lin, damping);
         self.factor_and_solve()?;
         Ok(self.back_substitute(p, lin, damping, step))
     }
@@ -536,12 +684,19 @@ impl ReducedSystem {
             if !self.plane_used[q] {
                 continue;
             }
-            let mut r = -lin.g_plane[q];
-            for &(k, _) in &entries[start[q]..start[q + 1]] {
-                let pose = p.plane_observations[k].pose;
-                r -= lin.w_plane_obs[k].transpose() * step.pose[pose];
+            if self.plane_block[q] != NONE {
+                step.plane[q] = self
+                    .reduced_step(self.plane_block[q])
+                    .fixed_rows::<3>(0)
+                    .into();
+            } else {
+                let mut r = -lin.g_plane[q];
+                for &(k, _) in &entries[start[q]..start[q + 1]] {
+                    let pose = p.plane_observations[k].pose;
+                    r -= lin.w_plane_obs[k].transpose() * step.pose[pose];
+                }
+                step.plane[q] = self.plane_inverse[q] * r;
             }
-            step.plane[q] = self.plane_inverse[q] * r;
             add(
                 landmark_scale(&lin.h_plane[q]).as_slice(),
                 lin.g_plane[q].as_slice(),

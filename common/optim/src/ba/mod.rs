@@ -9,8 +9,8 @@ mod terms;
 
 pub use config::{BaConfig, ONE_DEGREE_INFORMATION};
 pub use problem::{
-    BaError, BaLineObservation, BaLinePrior, BaManhattan, BaPlaneObservation, BaPointObservation,
-    BaPose, BaProblem,
+    BaError, BaLineObservation, BaLinePrior, BaManhattan, BaPlaneAxis, BaPlaneObservation,
+    BaPointObservation, BaPose, BaProblem,
 };
 pub use solver::{BaResult, LocalBundleAdjuster};
 pub use terms::BaFlags;

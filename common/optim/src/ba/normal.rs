@@ -26,6 +26,10 @@ pub(crate) struct Linearization {
     pub(crate) h_parallel: Vec<Matrix6<f64>>,
     /// Line-line block `H_ij` of each perpendicular pair.
     pub(crate) h_perpendicular: Vec<Matrix6<f64>>,
+    /// Plane-plane block `H_ij` of each parallel plane pair.
+    pub(crate) h_plane_parallel: Vec<Matrix3<f64>>,
+    /// Plane-plane block `H_ij` of each perpendicular plane pair.
+    pub(crate) h_plane_perpendicular: Vec<Matrix3<f64>>,
 }
 
 impl Linearization {
@@ -47,6 +51,10 @@ impl Linearization {
         self.h_parallel.resize(p.parallel.len(), Matrix6::zeros());
         self.h_perpendicular
             .resize(p.perpendicular.len(), Matrix6::zeros());
+        self.h_plane_parallel
+            .resize(p.plane_parallel.len(), Matrix3::zeros());
+        self.h_plane_perpendicular
+            .resize(p.plane_perpendicular.len(), Matrix3::zeros());
     }
 
     pub(crate) fn clear(&mut self) {
@@ -64,6 +72,8 @@ impl Linearization {
         self.w_line_obs.fill(Matrix6::zeros());
         self.h_parallel.fill(Matrix6::zeros());
         self.h_perpendicular.fill(Matrix6::zeros());
+        self.h_plane_parallel.fill(Matrix3::zeros());
+        self.h_plane_perpendicular.fill(Matrix3::zeros());
     }
 }
 

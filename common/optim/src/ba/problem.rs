@@ -83,6 +83,16 @@ pub struct BaPlaneObservation {
     pub inv_sigma2_offset: f64,
 }
 
+/// A map plane whose normal is tied to a Manhattan axis
+/// ([`crate::residuals::PlaneAxis`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaPlaneAxis {
+    /// Index into [`BaProblem::planes`].
+    pub plane: usize,
+    /// Unit axis direction, world frame (held fixed).
+    pub axis: Vector3<f64>,
+}
+
 /// The variables and terms of one local BA. Points and lines are updated in place.
 #[derive(Clone, Debug)]
 pub struct BaProblem {
@@ -112,6 +122,12 @@ pub struct BaProblem {
     pub line_priors: Vec<BaLinePrior>,
     /// Keyframe observations of map planes.
     pub plane_observations: Vec<BaPlaneObservation>,
+    /// Pairs of plane indices whose normals should be parallel (either sign).
+    pub plane_parallel: Vec<(usize, usize)>,
+    /// Pairs of plane indices whose normals should be perpendicular.
+    pub plane_perpendicular: Vec<(usize, usize)>,
+    /// Plane <-> Manhattan axis associations.
+    pub plane_axes: Vec<BaPlaneAxis>,
 }
 
 impl BaProblem {
@@ -130,6 +146,9 @@ impl BaProblem {
             manhattan: Vec::new(),
             line_priors: Vec::new(),
             plane_observations: Vec::new(),
+            plane_parallel: Vec::new(),
+            plane_perpendicular: Vec::new(),
+            plane_axes: Vec::new(),
         }
     }
 
@@ -224,6 +243,20 @@ impl BaProblem {
                 && o.inv_sigma2_normal.is_finite()
                 && o.inv_sigma2_offset.is_finite();
             finite("plane_observations", i, ok)?;
+        }
+        let nq = self.planes.len();
+        for (list, pairs) in [
+            ("plane_parallel", &self.plane_parallel),
+            ("plane_perpendicular", &self.plane_perpendicular),
+        ] {
+            for (i, &(a, b)) in pairs.iter().enumerate() {
+                check(list, i, "first", a, nq)?;
+                check(list, i, "second", b, nq)?;
+            }
+        }
+        for (i, m) in self.plane_axes.iter().enumerate() {
+            check("plane_axes", i, "plane", m.plane, nq)?;
+            finite("plane_axes", i, m.axis.iter().all(|v| v.is_finite()))?;
         }
         if np > 0 && self.poses.iter().all(|p| !p.fixed) {
             return Err(BaError::NoFixedPose { poses: np });

@@ -6,10 +6,10 @@ use super::config::BaConfig;
 use super::normal::Linearization;
 use super::problem::{BaPointObservation, BaProblem};
 use crate::residuals::{
-    LineReprojection, ManhattanAxis, ParallelLines, PerpendicularLines, PointReprojection,
-    StereoPointReprojection,
+    LineReprojection, ManhattanAxis, ParallelLines, ParallelPlanes, PerpendicularLines,
+    PerpendicularPlanes, PlaneAxis, PointReprojection, StereoPointReprojection,
 };
-use crate::robust::Huber;
+use crate::robust::{CHI2_1DOF_95, CHI2_2DOF_95, Huber};
 use nalgebra::{Isometry3, SMatrix, SVector, Vector3, Vector4};
 
 /// The current values of all variables.
@@ -47,6 +47,12 @@ pub struct BaFlags {
     pub manhattan: Vec<bool>,
     /// One per [`BaProblem::plane_observations`].
     pub plane_observations: Vec<bool>,
+    /// One per [`BaProblem::plane_parallel`] pair.
+    pub plane_parallel: Vec<bool>,
+    /// One per [`BaProblem::plane_perpendicular`] pair.
+    pub plane_perpendicular: Vec<bool>,
+    /// One per [`BaProblem::plane_axes`] association.
+    pub plane_axes: Vec<bool>,
 }
 
 impl BaFlags {
@@ -67,6 +73,12 @@ impl BaFlags {
             &mut self.plane_observations,
             problem.plane_observations.len(),
         );
+        reset(&mut self.plane_parallel, problem.plane_parallel.len());
+        reset(
+            &mut self.plane_perpendicular,
+            problem.plane_perpendicular.len(),
+        );
+        reset(&mut self.plane_axes, problem.plane_axes.len());
     }
 }
 
@@ -81,6 +93,12 @@ pub(crate) struct Terms<'a> {
     perpendicular_huber: Huber,
     manhattan_huber: Huber,
     plane_huber: Huber,
+    /// Information of the plane structural terms (0: off).
+    plane_structure_weight: f64,
+    /// Kernel of a parallel plane pair or a plane-axis term (2 dof).
+    plane_two_dof_huber: Huber,
+    /// Kernel of a perpendicular plane pair (1 dof).
+    plane_one_dof_huber: Huber,
 }
 
 /// Square roots of a plane observation's information per error row (normal x3, offset).
@@ -115,7 +133,25 @@ impl<'a> Terms<'a> {
             perpendicular_huber: Huber::from_chi2(config.perpendicular_chi2),
             manhattan_huber: Huber::from_chi2(config.manhattan_chi2),
             plane_huber: Huber::from_chi2(config.plane_chi2),
+            plane_structure_weight: config.plane_structure_information(),
+            plane_two_dof_huber: Huber::from_chi2(CHI2_2DOF_95),
+            plane_one_dof_huber: Huber::from_chi2(CHI2_1DOF_95),
         }
+    }
+
+    /// True when parallel plane pair `k` takes part (weight on and flagged inlier).
+    pub(crate) fn plane_parallel_active(&self, flags: &BaFlags, k: usize) -> bool {
+        self.plane_structure_weight > 0.0 && flags.plane_parallel[k]
+    }
+
+    /// True when perpendicular plane pair `k` takes part.
+    pub(crate) fn plane_perpendicular_active(&self, flags: &BaFlags, k: usize) -> bool {
+        self.plane_structure_weight > 0.0 && flags.plane_perpendicular[k]
+    }
+
+    /// True when plane-axis association `k` takes part.
+    pub(crate) fn plane_axis_active(&self, flags: &BaFlags, k: usize) -> bool {
+        self.plane_structure_weight > 0.0 && flags.plane_axes[k]
     }
 
     /// True when parallel pair `k` takes part (weight on and flagged inlier).
@@ -203,6 +239,24 @@ impl<'a> Terms<'a> {
         s.is_finite().then_some(s)
     }
 
+    fn plane_parallel_chi2(&self, v: &Values, k: usize) -> Option<f64> {
+        let (i, j) = self.problem.plane_parallel[k];
+        let e = ParallelPlanes.error(&v.planes[i].0, &v.planes[j].0);
+        (i != j).then(|| self.plane_structure_weight * e.norm_squared())
+    }
+
+    fn plane_perpendicular_chi2(&self, v: &Values, k: usize) -> Option<f64> {
+        let (i, j) = self.problem.plane_perpendicular[k];
+        let e = PerpendicularPlanes.error(&v.planes[i].0, &v.planes[j].0);
+        (i != j).then_some(self.plane_structure_weight * e * e)
+    }
+
+    fn plane_axis_chi2(&self, v: &Values, k: usize) -> Option<f64> {
+        let m = &self.problem.plane_axes[k];
+        let e = PlaneAxis { axis: m.axis }.error(&v.planes[m.plane].0);
+        Some(self.plane_structure_weight * e.norm_squared())
+    }
+
     /// Cost of the line depth priors at `v` (plain least squares: a prior is never an
     /// outlier).
     fn line_prior_cost(&self, v: &Values) -> f64 {
@@ -243,6 +297,15 @@ impl<'a> Terms<'a> {
         for (k, f) in flags.plane_observations.iter_mut().enumerate() {
             *f = inlier(self.plane_chi2(v, k), self.config.plane_chi2);
         }
+        for (k, f) in flags.plane_parallel.iter_mut().enumerate() {
+            *f = inlier(self.plane_parallel_chi2(v, k), CHI2_2DOF_95);
+        }
+        for (k, f) in flags.plane_perpendicular.iter_mut().enumerate() {
+            *f = inlier(self.plane_perpendicular_chi2(v, k), CHI2_1DOF_95);
+        }
+        for (k, f) in flags.plane_axes.iter_mut().enumerate() {
+            *f = inlier(self.plane_axis_chi2(v, k), CHI2_2DOF_95);
+        }
     }
 
     /// Flags only the terms that cannot be evaluated at `v` (the start of the first
@@ -266,6 +329,15 @@ impl<'a> Terms<'a> {
         }
         for (k, f) in flags.plane_observations.iter_mut().enumerate() {
             *f = self.plane_chi2(v, k).is_some();
+        }
+        for (k, f) in flags.plane_parallel.iter_mut().enumerate() {
+            *f = self.plane_parallel_chi2(v, k).is_some();
+        }
+        for (k, f) in flags.plane_perpendicular.iter_mut().enumerate() {
+            *f = self.plane_perpendicular_chi2(v, k).is_some();
+        }
+        for (k, f) in flags.plane_axes.iter_mut().enumerate() {
+            *f = self.plane_axis_chi2(v, k).is_some();
         }
     }
 
@@ -299,6 +371,19 @@ impl<'a> Terms<'a> {
         }
         for k in (0..flags.plane_observations.len()).filter(|&k| flags.plane_observations[k]) {
             ok &= add(self.plane_chi2(v, k), &self.plane_huber);
+        }
+        for k in (0..flags.plane_parallel.len()).filter(|&k| self.plane_parallel_active(flags, k)) {
+            ok &= add(self.plane_parallel_chi2(v, k), &self.plane_two_dof_huber);
+        }
+        let perpendicular = 0..flags.plane_perpendicular.len();
+        for k in perpendicular.filter(|&k| self.plane_perpendicular_active(flags, k)) {
+            ok &= add(
+                self.plane_perpendicular_chi2(v, k),
+                &self.plane_one_dof_huber,
+            );
+        }
+        for k in (0..flags.plane_axes.len()).filter(|&k| self.plane_axis_active(flags, k)) {
+            ok &= add(self.plane_axis_chi2(v, k), &self.plane_two_dof_huber);
         }
         cost += self.line_prior_cost(v);
         (ok && cost.is_finite()).then_some(cost)
@@ -455,6 +540,51 @@ impl<'a> Terms<'a> {
                 );
                 lin.w_plane_obs[k] = d_pose.transpose() * w * d_plane;
             }
+        }
+        self.linearize_plane_structure(v, flags, lin);
+    }
+
+    /// Linearises the active parallel / perpendicular plane pairs and plane-axis terms.
+    fn linearize_plane_structure(&self, v: &Values, flags: &BaFlags, lin: &mut Linearization) {
+        let p = self.problem;
+        let weight = self.plane_structure_weight;
+        for (k, &(i, j)) in p.plane_parallel.iter().enumerate() {
+            if !self.plane_parallel_active(flags, k) || i == j {
+                continue;
+            }
+            let l = ParallelPlanes.linearize(&v.planes[i].0, &v.planes[j].0);
+            let s = weight * l.error.norm_squared();
+            let w = weight * self.plane_two_dof_huber.weight(s);
+            lin.cost += self.plane_two_dof_huber.cost(s);
+            let (hi, gi) = (&mut lin.h_plane[i], &mut lin.g_plane[i]);
+            add_block(hi, gi, &l.d_first, &l.error, w);
+            let (hj, gj) = (&mut lin.h_plane[j], &mut lin.g_plane[j]);
+            add_block(hj, gj, &l.d_second, &l.error, w);
+            lin.h_plane_parallel[k] = l.d_first.transpose() * w * l.d_second;
+        }
+        for (k, &(i, j)) in p.plane_perpendicular.iter().enumerate() {
+            if !self.plane_perpendicular_active(flags, k) || i == j {
+                continue;
+            }
+            let l = PerpendicularPlanes.linearize(&v.planes[i].0, &v.planes[j].0);
+            let s = weight * l.error * l.error;
+            let w = weight * self.plane_one_dof_huber.weight(s);
+            let e = SVector::<f64, 1>::new(l.error);
+            lin.cost += self.plane_one_dof_huber.cost(s);
+            add_block(&mut lin.h_plane[i], &mut lin.g_plane[i], &l.d_first, &e, w);
+            add_block(&mut lin.h_plane[j], &mut lin.g_plane[j], &l.d_second, &e, w);
+            lin.h_plane_perpendicular[k] = l.d_first.transpose() * w * l.d_second;
+        }
+        for (k, m) in p.plane_axes.iter().enumerate() {
+            if !self.plane_axis_active(flags, k) {
+                continue;
+            }
+            let l = (PlaneAxis { axis: m.axis }).linearize(&v.planes[m.plane].0);
+            let s = weight * l.error.norm_squared();
+            let w = weight * self.plane_two_dof_huber.weight(s);
+            lin.cost += self.plane_two_dof_huber.cost(s);
+            let (h, g) = (&mut lin.h_plane[m.plane], &mut lin.g_plane[m.plane]);
+            add_block(h, g, &l.d_plane, &l.error, w);
         }
     }
 

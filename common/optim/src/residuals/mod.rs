@@ -13,6 +13,8 @@ mod manhattan;
 mod parallel;
 mod perpendicular;
 mod plane;
+mod plane_axis;
+mod plane_pairs;
 mod point;
 mod point_to_plane;
 mod projection;
@@ -23,6 +25,11 @@ pub use manhattan::{ManhattanAxis, ManhattanLinearization};
 pub use parallel::{ParallelLinearization, ParallelLines};
 pub use perpendicular::{PerpendicularLinearization, PerpendicularLines};
 pub use plane::{PlaneLinearization, PlaneToPlane, plane_plus, tangent_basis};
+pub use plane_axis::{PlaneAxis, PlaneAxisLinearization};
+pub use plane_pairs::{
+    ParallelPlanes, ParallelPlanesLinearization, PerpendicularPlanes,
+    PerpendicularPlanesLinearization,
+};
 pub use point::{PointLinearization, PointReprojection};
 pub use point_to_plane::{PointToPlane, PointToPlaneLinearization};
 pub use stereo::{StereoPointLinearization, StereoPointReprojection};
