@@ -52,6 +52,12 @@ pub struct DepthAlignmentConfig {
     /// instead of 7.7, rotation seed 3: 3.2 instead of 5.8; TUM fr1 0.0120 m instead of
     /// 0.0115, 7-Scenes 0.0208 m both).
     pub keyframe_reference: bool,
+    /// Standard deviation of the photometric term's intensity difference (8 px cell
+    /// means), gray levels; 0 = no photometric term; default 1.0.
+    pub photometric_sigma: f64,
+    /// Uncertainty of a depth node's position across the image, pixels: its intensity
+    /// difference is uncertain by this times the intensity gradient there; default 2.0.
+    pub photometric_position_sigma_px: f64,
 }
 
 impl Default for DepthAlignmentConfig {
@@ -64,6 +70,8 @@ impl Default for DepthAlignmentConfig {
             max_sigma_m: 0.015,
             weak_sigma_m: 0.002,
             keyframe_reference: true,
+            photometric_sigma: 1.0,
+            photometric_position_sigma_px: 2.0,
         }
     }
 }
@@ -291,7 +299,7 @@ mod tests {
                 &[],
                 gfs_optim::SurfaceObservations {
                     depth: pairs,
-                    planes: &[],
+                    ..gfs_optim::SurfaceObservations::default()
                 },
                 &gfs_optim::PoseOptimizerConfig::default(),
                 &mut result,

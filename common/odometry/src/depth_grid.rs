@@ -1,7 +1,10 @@
 //! A frame's depth as the tracker keeps it: the planes stage's block-averaged 3D points
-//! and normals, sub-sampled to a coarse grid of the image (memory: 80 x 60 nodes of a
-//! VGA frame, 115 kB), for the depth alignment of the next frame.
+//! and normals, sub-sampled to a coarse grid of the image, and the mean gray level of
+//! each node's pixel cell (memory: 80 x 60 nodes of a VGA frame, 134 kB), for the depth
+//! and photometric alignment of the next frames.
 
+use gfs_core::ImageView;
+use gfs_optim::residuals::IntensityGrid;
 use gfs_planes::NormalEstimator;
 use nalgebra::Vector3;
 
@@ -18,6 +21,10 @@ pub struct DepthGrid {
     pub points: Vec<[f32; 3]>,
     /// Unit normals towards the camera, row-major; all zeros means none.
     pub normals: Vec<[f32; 3]>,
+    /// Mean gray level of each node's `stride_px` square of pixels, row-major; empty
+    /// when the intensities were not sampled.
+    #[serde(default)]
+    pub intensity: Vec<f32>,
 }
 
 impl DepthGrid {
@@ -47,6 +54,63 @@ impl DepthGrid {
         }
     }
 
+    /// Averages `gray` over each node's cell (`[i s, (i + 1) s) x [j s, (j + 1) s)`),
+    /// reusing the buffer; nothing when the image does not cover the grid.
+    pub fn sample_intensity(&mut self, gray: &ImageView<'_, u8>) {
+        self.intensity.clear();
+        let (s, w, h) = (
+            self.stride_px as usize,
+            self.width as usize,
+            self.height as usize,
+        );
+        if s == 0 || gray.width() < w * s || gray.height() < h * s {
+            return;
+        }
+        self.intensity.resize(w * h, 0.0);
+        for y in 0..h * s {
+            let row = &gray.row(y)[..w * s];
+            let cells = &mut self.intensity[(y / s) * w..(y / s + 1) * w];
+            for (cell, pixels) in cells.iter_mut().zip(row.chunks_exact(s)) {
+                *cell += pixels.iter().map(|&p| f32::from(p)).sum::<f32>();
+            }
+        }
+        let area = (s * s) as f32;
+        self.intensity.iter_mut().for_each(|v| *v /= area);
+        self.smooth_intensity();
+    }
+
+    /// Blurs the intensities with the binomial kernel `[1 4 6 4 1] / 16` along rows and
+    /// columns (a Gaussian of about one cell), in place. The photometric term reads them
+    /// between cells: bilinear interpolation of noise that is independent from cell to
+    /// cell has less variance between cells than at them, and on faint texture that
+    /// variance pulls the pose towards whole-cell shifts (a wall and the floor moving
+    /// 1 cm a frame were tracked 7 % short); correlated noise interpolates evenly.
+    pub fn smooth_intensity(&mut self) {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if w == 0 || self.intensity.len() != w * h {
+            return;
+        }
+        for _ in 0..2 {
+            for j in 0..h {
+                smooth_line(&mut self.intensity, j * w, 1, w);
+            }
+            for i in 0..w {
+                smooth_line(&mut self.intensity, i, w, h);
+            }
+        }
+    }
+
+    /// The intensities as the photometric term reads them; `None` when not sampled.
+    pub fn intensity_grid(&self) -> Option<IntensityGrid<'_>> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        (w > 0 && self.intensity.len() == w * h).then_some(IntensityGrid {
+            stride_px: self.stride_px,
+            width: w,
+            height: h,
+            values: &self.intensity,
+        })
+    }
+
     /// The node at pixel `(u, v)` with a point and a normal.
     pub fn at_pixel(&self, u: f64, v: f64) -> Option<(Vector3<f64>, Vector3<f64>)> {
         let s = f64::from(self.stride_px.max(1));
@@ -66,5 +130,18 @@ impl DepthGrid {
                 Vector3::new(n[0].into(), n[1].into(), n[2].into()),
             )
         })
+    }
+}
+
+/// `[1 2 1] / 4` in place along the `n` values of `values` from `start`, `stride`
+/// apart, the end values repeated past the ends.
+fn smooth_line(values: &mut [f32], start: usize, stride: usize, n: usize) {
+    let mut previous = values[start];
+    for k in 0..n {
+        let at = start + k * stride;
+        let current = values[at];
+        let next = if k + 1 < n { values[at + stride] } else { current };
+        values[at] = 0.25 * (previous + 2.0 * current + next);
+        previous = current;
     }
 }

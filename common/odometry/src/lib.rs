@@ -50,6 +50,7 @@ mod observation;
 mod odometry;
 mod plane_association;
 mod plane_mapping;
+mod photometric_alignment;
 mod pose_solver;
 mod ransac;
 mod relocalise;

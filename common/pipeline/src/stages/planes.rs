@@ -90,6 +90,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         let mut axes = None;
         let mut extracted = false;
+        structure.surfaces(false, false, &mut surfaces);
         if use_manhattan {
             // Lockstep: the pose of frame k-1 was published before frame k, but a
             // restarted stage may see the frame before the pose topic's history.
@@ -152,6 +153,14 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                             tracing::warn!(frame = id, "planes: {e}");
                             None
                         });
+                    // The surfaces are taken while the frame is at hand: the depth grid
+                    // carries the gray level of each node's cell.
+                    if extracted && surfaces_publisher.is_some() {
+                        structure.surfaces(send_planes, send_depth, &mut surfaces);
+                        if send_depth {
+                            surfaces.depth.sample_intensity(&frame.gray());
+                        }
+                    }
                 }
                 Err(e) => tracing::warn!(frame = id, "planes: bad frame: {e}"),
             }
@@ -168,11 +177,6 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         if let Some(surfaces_publisher) = &surfaces_publisher {
             // A frame whose extraction failed sends empty surfaces: the tracker's join
             // waits for this part of every frame.
-            structure.surfaces(
-                send_planes && extracted,
-                send_depth && extracted,
-                &mut surfaces,
-            );
             match encode_message(&surfaces, &mut surface_bytes) {
                 Ok(_) => surfaces_publisher.publish_slice(&header, &surface_bytes)?,
                 Err(e) => {
