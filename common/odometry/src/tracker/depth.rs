@@ -32,7 +32,7 @@ impl Tracker {
         {
             return false;
         }
-        self.align_depth(map, frame)
+        self.align_depth(map, frame, self.config.depth.photometric_on_features)
     }
 
     /// Tracks a frame the features lost on its planes and depth alone (each when
@@ -44,7 +44,7 @@ impl Tracker {
             self.refine_with_planes(map, frame);
         }
         let depth_ok = self.config.use_depth_alignment
-            && self.align_depth(map, frame)
+            && self.align_depth(map, frame, true)
             && frame.inliers.depth > 0
             && frame.inliers.depth as f64 >= MIN_DEPTH_INLIER_SHARE * self.depth_pairs as f64;
         self.keep_plane_inliers(frame);
@@ -55,7 +55,7 @@ impl Tracker {
 
     /// The coarse-to-fine association and optimisation passes, against the reference
     /// keyframe's depth or the last frame's ([`depth_reference`]).
-    fn align_depth(&mut self, map: &Map, frame: &mut TrackedFrame) -> bool {
+    fn align_depth(&mut self, map: &Map, frame: &mut TrackedFrame, photometric: bool) -> bool {
         self.update_keyframe_depth(map);
         for pass in 0..self.config.depth.max_distance_m.len() {
             let Some((reference, reference_from_world)) = depth_reference(
@@ -81,7 +81,7 @@ impl Tracker {
             );
             self.depth_pairs = pairs.len();
             self.solver.set_depth(pairs);
-            let photometric = self.photometric_associator.associate(
+            let observations = self.photometric_associator.associate(
                 &self.config.depth,
                 &self.camera,
                 &frame.features.depth,
@@ -89,7 +89,8 @@ impl Tracker {
                 reference,
                 &reference_from_world,
             );
-            self.solver.set_photometric(photometric);
+            self.solver
+                .set_photometric(if photometric { observations } else { &[] });
             self.optimise(map, frame);
         }
         self.solver.set_depth(&[]);
