@@ -140,7 +140,11 @@ fn smooth_line(values: &mut [f32], start: usize, stride: usize, n: usize) {
     for k in 0..n {
         let at = start + k * stride;
         let current = values[at];
-        let next = if k + 1 < n { values[at + stride] } else { current };
+        let next = if k + 1 < n {
+            values[at + stride]
+        } else {
+            current
+        };
         values[at] = 0.25 * (previous + 2.0 * current + next);
         previous = current;
     }

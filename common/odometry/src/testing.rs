@@ -103,7 +103,10 @@ pub fn textured_planes_depth(
     let s = f64::from(grid.stride_px);
     for j in 0..grid.height {
         for i in 0..grid.width {
-            let (u, v) = (f64::from(i) * s + (s - 1.0) / 2.0, f64::from(j) * s + (s - 1.0) / 2.0);
+            let (u, v) = (
+                f64::from(i) * s + (s - 1.0) / 2.0,
+                f64::from(j) * s + (s - 1.0) / 2.0,
+            );
             let ray = world_from_camera.rotation * camera.back_project(u, v, 1.0).coords;
             let t = planes
                 .iter()

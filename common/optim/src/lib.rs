@@ -72,7 +72,8 @@ pub use ba::{
 pub use degeneracy::{PoseConstraint, analyse_constraint};
 pub use pose::{
     DepthObservation, LineObservation, PhotometricObservation, PhotometricTerm, PlaneObservation,
-    PointObservation, PoseOptimizerConfig, PoseResult, SurfaceObservations, optimize_pose, optimize_pose_with_depth,
+    PointObservation, PoseOptimizerConfig, PoseResult, SurfaceObservations, optimize_pose,
+    optimize_pose_with_depth,
 };
 pub use pose_graph::{
     CHI2_6DOF_95, PoseGraph, PoseGraphConfig, PoseGraphError, PoseGraphKernel, PoseGraphReport,

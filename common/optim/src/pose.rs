@@ -531,8 +531,7 @@ impl PoseProblem<'_> {
                         .is_some_and(|s| s <= thresholds.photometric);
             }
         }
-        result.num_photometric_inliers =
-            result.photometric_inliers.iter().filter(|&&f| f).count();
+        result.num_photometric_inliers = result.photometric_inliers.iter().filter(|&&f| f).count();
         result.num_plane_inliers = result.plane_inliers.iter().filter(|&&f| f).count();
         result.num_depth_inliers = result.depth_inliers.iter().filter(|&&f| f).count();
         result.num_point_inliers = result.point_inliers.iter().filter(|&&f| f).count();
