@@ -21,13 +21,31 @@ pub struct DepthGrid {
     pub points: Vec<[f32; 3]>,
     /// Unit normals towards the camera, row-major; all zeros means none.
     pub normals: Vec<[f32; 3]>,
-    /// Mean gray level of each node's `stride_px` square of pixels, row-major; empty
-    /// when the intensities were not sampled.
+    /// Mean gray level of each `intensity_cell_px` square of pixels over the grid's
+    /// extent, row-major, blurred; empty when the intensities were not sampled.
     #[serde(default)]
     pub intensity: Vec<f32>,
+    /// Pixels per intensity cell side (a divisor of `stride_px`); 0 = `stride_px`.
+    #[serde(default)]
+    pub intensity_cell_px: u32,
 }
 
 impl DepthGrid {
+    /// Pixels per intensity cell side of the grids the front end makes: finer than the
+    /// nodes, the cells keep the paint's finer texture.
+    pub const INTENSITY_CELL_PX: u32 = 4;
+
+    /// Cell side, cells per row and rows of the intensities.
+    fn intensity_layout(&self) -> (usize, usize, usize) {
+        let cell = if self.intensity_cell_px == 0 {
+            self.stride_px
+        } else {
+            self.intensity_cell_px
+        } as usize;
+        let extent = |nodes: u32| (nodes * self.stride_px) as usize / cell.max(1);
+        (cell, extent(self.width), extent(self.height))
+    }
+
     /// True without any node.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
@@ -54,16 +72,18 @@ impl DepthGrid {
         }
     }
 
-    /// Averages `gray` over each node's cell (`[i s, (i + 1) s) x [j s, (j + 1) s)`),
-    /// reusing the buffer; nothing when the image does not cover the grid.
-    pub fn sample_intensity(&mut self, gray: &ImageView<'_, u8>) {
+    /// Averages `gray` over cells of `cell_px` (`[i s, (i + 1) s) x [j s, (j + 1) s)`)
+    /// over the grid's extent, reusing the buffer; nothing when the image does not
+    /// cover the grid or `cell_px` does not divide the node stride.
+    pub fn sample_intensity(&mut self, gray: &ImageView<'_, u8>, cell_px: u32) {
         self.intensity.clear();
-        let (s, w, h) = (
-            self.stride_px as usize,
-            self.width as usize,
-            self.height as usize,
-        );
-        if s == 0 || gray.width() < w * s || gray.height() < h * s {
+        self.intensity_cell_px = cell_px;
+        let (s, w, h) = self.intensity_layout();
+        if s == 0
+            || self.stride_px as usize % s != 0
+            || gray.width() < w * s
+            || gray.height() < h * s
+        {
             return;
         }
         self.intensity.resize(w * h, 0.0);
@@ -86,7 +106,7 @@ impl DepthGrid {
     /// variance pulls the pose towards whole-cell shifts (a wall and the floor moving
     /// 1 cm a frame were tracked 7 % short); correlated noise interpolates evenly.
     pub fn smooth_intensity(&mut self) {
-        let (w, h) = (self.width as usize, self.height as usize);
+        let (_, w, h) = self.intensity_layout();
         if w == 0 || self.intensity.len() != w * h {
             return;
         }
@@ -102,9 +122,9 @@ impl DepthGrid {
 
     /// The intensities as the photometric term reads them; `None` when not sampled.
     pub fn intensity_grid(&self) -> Option<IntensityGrid<'_>> {
-        let (w, h) = (self.width as usize, self.height as usize);
+        let (cell, w, h) = self.intensity_layout();
         (w > 0 && self.intensity.len() == w * h).then_some(IntensityGrid {
-            stride_px: self.stride_px,
+            stride_px: cell as u32,
             width: w,
             height: h,
             values: &self.intensity,

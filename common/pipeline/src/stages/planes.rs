@@ -6,7 +6,7 @@ use super::context::{POLL, StageContext, StageError, mark_ready};
 use crate::wire::{WireLine, WireManhattan, WirePose};
 use gfs_ipc::{Mode, Service, Stage, TopicSubscriber, encode_message, frame_view, topics};
 use gfs_lines::Line3;
-use gfs_odometry::{FrameSurfaces, StructureExtractor};
+use gfs_odometry::{DepthGrid, FrameSurfaces, StructureExtractor};
 use nalgebra::Rotation3;
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -158,7 +158,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                     if extracted && surfaces_publisher.is_some() {
                         structure.surfaces(send_planes, send_depth, &mut surfaces);
                         if send_depth {
-                            surfaces.depth.sample_intensity(&frame.gray());
+                            surfaces
+                                .depth
+                                .sample_intensity(&frame.gray(), DepthGrid::INTENSITY_CELL_PX);
                         }
                     }
                 }
