@@ -169,3 +169,37 @@ fn smooth_line(values: &mut [f32], start: usize, stride: usize, n: usize) {
         previous = current;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gfs_core::GrayImage;
+
+    #[test]
+    fn intensities_are_cell_means_finer_than_the_nodes() {
+        // A horizontal ramp: gray = x / 4, 640 x 480.
+        let pixels = (0..480)
+            .flat_map(|_| (0..640).map(|x| (x / 4) as u8))
+            .collect();
+        let gray = GrayImage::from_vec(640, 480, pixels).expect("size");
+        let mut grid = DepthGrid {
+            stride_px: 8,
+            width: 80,
+            height: 60,
+            ..DepthGrid::default()
+        };
+        grid.sample_intensity(&gray.view(), DepthGrid::INTENSITY_CELL_PX);
+        let image = grid.intensity_grid().expect("sampled");
+        assert_eq!((image.width, image.height, image.stride_px), (160, 120, 4));
+        // A cell's mean is its pixels' (x / 4 constant over a 4 px cell); the blur keeps
+        // a ramp away from the border.
+        let (value, gradient) = image
+            .intensity_and_gradient(4.0 * 50.0 + 1.5, 200.0)
+            .expect("inside");
+        assert!((value - 50.0).abs() < 1e-4, "{value}");
+        assert!((gradient[0] - 0.25).abs() < 1e-5 && gradient[1].abs() < 1e-5);
+        // A cell that does not divide the node stride samples nothing.
+        grid.sample_intensity(&gray.view(), 3);
+        assert!(grid.intensity_grid().is_none());
+    }
+}
