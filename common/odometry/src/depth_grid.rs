@@ -1,7 +1,7 @@
 //! A frame's depth as the tracker keeps it: the planes stage's block-averaged 3D points
-//! and normals, sub-sampled to a coarse grid of the image, and the mean gray level of
-//! each node's pixel cell (memory: 80 x 60 nodes of a VGA frame, 134 kB), for the depth
-//! and photometric alignment of the next frames.
+//! and normals, sub-sampled to a coarse grid of the image, and the mean gray levels of
+//! finer pixel cells (memory: 80 x 60 nodes and 160 x 120 cells of a VGA frame,
+//! 192 kB), for the depth and photometric alignment of the next frames.
 
 use gfs_core::ImageView;
 use gfs_optim::residuals::IntensityGrid;
