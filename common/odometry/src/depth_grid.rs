@@ -80,7 +80,7 @@ impl DepthGrid {
         self.intensity_cell_px = cell_px;
         let (s, w, h) = self.intensity_layout();
         if s == 0
-            || self.stride_px as usize % s != 0
+            || !(self.stride_px as usize).is_multiple_of(s)
             || gray.width() < w * s
             || gray.height() < h * s
         {
