@@ -1,7 +1,10 @@
 //! A frame's depth as the tracker keeps it: the planes stage's block-averaged 3D points
-//! and normals, sub-sampled to a coarse grid of the image (memory: 80 x 60 nodes of a
-//! VGA frame, 115 kB), for the depth alignment of the next frame.
+//! and normals, sub-sampled to a coarse grid of the image, and the mean gray levels of
+//! finer pixel cells (memory: 80 x 60 nodes and 160 x 120 cells of a VGA frame,
+//! 192 kB), for the depth and photometric alignment of the next frames.
 
+use gfs_core::ImageView;
+use gfs_optim::residuals::IntensityGrid;
 use gfs_planes::NormalEstimator;
 use nalgebra::Vector3;
 
@@ -18,9 +21,31 @@ pub struct DepthGrid {
     pub points: Vec<[f32; 3]>,
     /// Unit normals towards the camera, row-major; all zeros means none.
     pub normals: Vec<[f32; 3]>,
+    /// Mean gray level of each `intensity_cell_px` square of pixels over the grid's
+    /// extent, row-major, blurred; empty when the intensities were not sampled.
+    #[serde(default)]
+    pub intensity: Vec<f32>,
+    /// Pixels per intensity cell side (a divisor of `stride_px`); 0 = `stride_px`.
+    #[serde(default)]
+    pub intensity_cell_px: u32,
 }
 
 impl DepthGrid {
+    /// Pixels per intensity cell side of the grids the front end makes: finer than the
+    /// nodes, the cells keep the paint's finer texture.
+    pub const INTENSITY_CELL_PX: u32 = 4;
+
+    /// Cell side, cells per row and rows of the intensities.
+    fn intensity_layout(&self) -> (usize, usize, usize) {
+        let cell = if self.intensity_cell_px == 0 {
+            self.stride_px
+        } else {
+            self.intensity_cell_px
+        } as usize;
+        let extent = |nodes: u32| (nodes * self.stride_px) as usize / cell.max(1);
+        (cell, extent(self.width), extent(self.height))
+    }
+
     /// True without any node.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
@@ -47,6 +72,65 @@ impl DepthGrid {
         }
     }
 
+    /// Averages `gray` over cells of `cell_px` (`[i s, (i + 1) s) x [j s, (j + 1) s)`)
+    /// over the grid's extent, reusing the buffer; nothing when the image does not
+    /// cover the grid or `cell_px` does not divide the node stride.
+    pub fn sample_intensity(&mut self, gray: &ImageView<'_, u8>, cell_px: u32) {
+        self.intensity.clear();
+        self.intensity_cell_px = cell_px;
+        let (s, w, h) = self.intensity_layout();
+        if s == 0
+            || !(self.stride_px as usize).is_multiple_of(s)
+            || gray.width() < w * s
+            || gray.height() < h * s
+        {
+            return;
+        }
+        self.intensity.resize(w * h, 0.0);
+        for y in 0..h * s {
+            let row = &gray.row(y)[..w * s];
+            let cells = &mut self.intensity[(y / s) * w..(y / s + 1) * w];
+            for (cell, pixels) in cells.iter_mut().zip(row.chunks_exact(s)) {
+                *cell += pixels.iter().map(|&p| f32::from(p)).sum::<f32>();
+            }
+        }
+        let area = (s * s) as f32;
+        self.intensity.iter_mut().for_each(|v| *v /= area);
+        self.smooth_intensity();
+    }
+
+    /// Blurs the intensities with the binomial kernel `[1 4 6 4 1] / 16` along rows and
+    /// columns (a Gaussian of about one cell), in place. The photometric term reads them
+    /// between cells: bilinear interpolation of noise that is independent from cell to
+    /// cell has less variance between cells than at them, and on faint texture that
+    /// variance pulls the pose towards whole-cell shifts (a wall and the floor moving
+    /// 1 cm a frame were tracked 7 % short); correlated noise interpolates evenly.
+    pub fn smooth_intensity(&mut self) {
+        let (_, w, h) = self.intensity_layout();
+        if w == 0 || self.intensity.len() != w * h {
+            return;
+        }
+        for _ in 0..2 {
+            for j in 0..h {
+                smooth_line(&mut self.intensity, j * w, 1, w);
+            }
+            for i in 0..w {
+                smooth_line(&mut self.intensity, i, w, h);
+            }
+        }
+    }
+
+    /// The intensities as the photometric term reads them; `None` when not sampled.
+    pub fn intensity_grid(&self) -> Option<IntensityGrid<'_>> {
+        let (cell, w, h) = self.intensity_layout();
+        (w > 0 && self.intensity.len() == w * h).then_some(IntensityGrid {
+            stride_px: cell as u32,
+            width: w,
+            height: h,
+            values: &self.intensity,
+        })
+    }
+
     /// The node at pixel `(u, v)` with a point and a normal.
     pub fn at_pixel(&self, u: f64, v: f64) -> Option<(Vector3<f64>, Vector3<f64>)> {
         let s = f64::from(self.stride_px.max(1));
@@ -66,5 +150,56 @@ impl DepthGrid {
                 Vector3::new(n[0].into(), n[1].into(), n[2].into()),
             )
         })
+    }
+}
+
+/// `[1 2 1] / 4` in place along the `n` values of `values` from `start`, `stride`
+/// apart, the end values repeated past the ends.
+fn smooth_line(values: &mut [f32], start: usize, stride: usize, n: usize) {
+    let mut previous = values[start];
+    for k in 0..n {
+        let at = start + k * stride;
+        let current = values[at];
+        let next = if k + 1 < n {
+            values[at + stride]
+        } else {
+            current
+        };
+        values[at] = 0.25 * (previous + 2.0 * current + next);
+        previous = current;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gfs_core::GrayImage;
+
+    #[test]
+    fn intensities_are_cell_means_finer_than_the_nodes() {
+        // A horizontal ramp: gray = x / 4, 640 x 480.
+        let pixels = (0..480)
+            .flat_map(|_| (0..640).map(|x| (x / 4) as u8))
+            .collect();
+        let gray = GrayImage::from_vec(640, 480, pixels).expect("size");
+        let mut grid = DepthGrid {
+            stride_px: 8,
+            width: 80,
+            height: 60,
+            ..DepthGrid::default()
+        };
+        grid.sample_intensity(&gray.view(), DepthGrid::INTENSITY_CELL_PX);
+        let image = grid.intensity_grid().expect("sampled");
+        assert_eq!((image.width, image.height, image.stride_px), (160, 120, 4));
+        // A cell's mean is its pixels' (x / 4 constant over a 4 px cell); the blur keeps
+        // a ramp away from the border.
+        let (value, gradient) = image
+            .intensity_and_gradient(4.0 * 50.0 + 1.5, 200.0)
+            .expect("inside");
+        assert!((value - 50.0).abs() < 1e-4, "{value}");
+        assert!((gradient[0] - 0.25).abs() < 1e-5 && gradient[1].abs() < 1e-5);
+        // A cell that does not divide the node stride samples nothing.
+        grid.sample_intensity(&gray.view(), 3);
+        assert!(grid.intensity_grid().is_none());
     }
 }

@@ -232,6 +232,7 @@ impl Frontend {
             )?;
             if self.keep_depth {
                 self.structure.depth_grid(&mut depth_grid);
+                depth_grid.sample_intensity(&gray, DepthGrid::INTENSITY_CELL_PX);
             }
             if self.keep_planes {
                 planes.extend_from_slice(self.structure.planes());

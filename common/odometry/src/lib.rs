@@ -50,6 +50,7 @@ mod messages_check;
 mod motion;
 mod observation;
 mod odometry;
+mod photometric_alignment;
 mod plane_association;
 mod plane_mapping;
 mod pose_solver;

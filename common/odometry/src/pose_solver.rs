@@ -8,8 +8,9 @@ use crate::observation::{KeypointMeasurement, LINE_INV_SIGMA2, observed_line};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{MapLineId, MapPointId};
 use gfs_optim::{
-    DepthObservation, LineObservation, PlaneObservation, PointObservation, PoseOptimizerConfig,
-    PoseResult, SurfaceObservations, optimize_pose_with_depth,
+    DepthObservation, LineObservation, PhotometricObservation, PhotometricTerm, PlaneObservation,
+    PointObservation, PoseOptimizerConfig, PoseResult, SurfaceObservations,
+    optimize_pose_with_depth,
 };
 use nalgebra::{Isometry3, Matrix6};
 
@@ -26,6 +27,9 @@ pub struct Inliers {
     /// Plane-to-plane observations that passed it (0 without `use_planes`).
     #[serde(default)]
     pub planes: usize,
+    /// Photometric observations that passed it (0 without the photometric term).
+    #[serde(default)]
+    pub photometric: usize,
 }
 
 impl Inliers {
@@ -47,6 +51,7 @@ pub struct PoseSolver {
     line_index: Vec<usize>,
     depth: Vec<DepthObservation>,
     planes: Vec<PlaneObservation>,
+    photometric: Vec<PhotometricObservation>,
     result: PoseResult,
 }
 
@@ -63,6 +68,7 @@ impl PoseSolver {
             line_index: Vec::new(),
             depth: Vec::new(),
             planes: Vec::new(),
+            photometric: Vec::new(),
             result: PoseResult::default(),
         }
     }
@@ -77,6 +83,13 @@ impl PoseSolver {
     pub fn set_planes(&mut self, observations: &[PlaneObservation]) {
         self.planes.clear();
         self.planes.extend_from_slice(observations);
+    }
+
+    /// The reference intensities the next [`Self::solve`] reads in the frame's
+    /// intensity grid (none until set; unused when the frame has no intensities).
+    pub fn set_photometric(&mut self, observations: &[PhotometricObservation]) {
+        self.photometric.clear();
+        self.photometric.extend_from_slice(observations);
     }
 
     /// Per plane observation of the last solve: inlier at its pose.
@@ -153,6 +166,14 @@ impl PoseSolver {
             SurfaceObservations {
                 depth: &self.depth,
                 planes: &self.planes,
+                photometric: frame
+                    .depth
+                    .intensity_grid()
+                    .filter(|_| !self.photometric.is_empty())
+                    .map(|image| PhotometricTerm {
+                        image,
+                        observations: &self.photometric,
+                    }),
             },
             &self.config,
             &mut self.result,
@@ -173,6 +194,7 @@ impl PoseSolver {
             lines: self.result.num_line_inliers,
             depth: self.result.num_depth_inliers,
             planes: self.result.num_plane_inliers,
+            photometric: self.result.num_photometric_inliers,
         }
     }
 

@@ -86,6 +86,45 @@ pub fn planes_depth(
     grid
 }
 
+/// [`planes_depth`] with the intensity of each node's cell: `texture` of the world point
+/// the cell's centre sees, plus the noise of a mean of 64 pixels of 2 gray levels each
+/// (`seed`).
+pub fn textured_planes_depth(
+    camera: &PinholeCamera,
+    camera_from_world: &Isometry3<f64>,
+    planes: &[([f64; 3], f64)],
+    texture: impl Fn(&Vector3<f64>) -> f64,
+    seed: u64,
+) -> DepthGrid {
+    let mut grid = planes_depth(camera, camera_from_world, planes);
+    let mut rng = SplitMix64::keyed(seed, &[3]);
+    let world_from_camera = camera_from_world.inverse();
+    let centre = world_from_camera.translation.vector;
+    let s = f64::from(grid.stride_px);
+    for j in 0..grid.height {
+        for i in 0..grid.width {
+            let (u, v) = (
+                f64::from(i) * s + (s - 1.0) / 2.0,
+                f64::from(j) * s + (s - 1.0) / 2.0,
+            );
+            let ray = world_from_camera.rotation * camera.back_project(u, v, 1.0).coords;
+            let t = planes
+                .iter()
+                .filter_map(|(n, d)| {
+                    let n = Vector3::from(*n);
+                    let t = (d - n.dot(&centre)) / n.dot(&ray);
+                    (t > 0.0 && t.is_finite()).then_some(t)
+                })
+                .min_by(f64::total_cmp);
+            let value = t.map_or(0.0, |t| texture(&(centre + ray * t)));
+            let noise = 0.25 * rng.gaussian();
+            grid.intensity.push((value + noise) as f32);
+        }
+    }
+    grid.smooth_intensity();
+    grid
+}
+
 /// The ORB pyramid of the fixtures (8 levels, 1.2 apart).
 pub fn scale() -> ScalePyramid {
     ScalePyramid::new(1.2, 8)

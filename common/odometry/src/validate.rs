@@ -103,6 +103,19 @@ impl TrackingConfig {
             self.depth.weak_sigma_m.is_finite() && self.depth.weak_sigma_m >= 0.0,
             "finite, >= 0",
         )?;
+        d.require(
+            "photometric_sigma",
+            self.depth.photometric_sigma,
+            self.depth.photometric_sigma.is_finite() && self.depth.photometric_sigma >= 0.0,
+            "finite, >= 0",
+        )?;
+        d.require(
+            "photometric_position_sigma_px",
+            self.depth.photometric_position_sigma_px,
+            self.depth.photometric_position_sigma_px.is_finite()
+                && self.depth.photometric_position_sigma_px >= 0.0,
+            "finite, >= 0",
+        )?;
         let q = Table("tracking.planes");
         q.within(
             "max_normal_angle_deg",

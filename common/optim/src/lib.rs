@@ -74,8 +74,9 @@ pub use ba::{
 };
 pub use degeneracy::{PoseConstraint, analyse_constraint};
 pub use pose::{
-    DepthObservation, LineObservation, PlaneObservation, PointObservation, PoseOptimizerConfig,
-    PoseResult, SurfaceObservations, optimize_pose, optimize_pose_with_depth,
+    DepthObservation, LineObservation, PhotometricObservation, PhotometricTerm, PlaneObservation,
+    PointObservation, PoseOptimizerConfig, PoseResult, SurfaceObservations, optimize_pose,
+    optimize_pose_with_depth,
 };
 pub use pose_graph::{
     CHI2_6DOF_95, PoseGraph, PoseGraphConfig, PoseGraphError, PoseGraphKernel, PoseGraphReport,

@@ -7,7 +7,8 @@
 
 use crate::lm::Damping;
 use crate::residuals::{
-    LineReprojection, PlaneToPlane, PointReprojection, PointToPlane, StereoPointReprojection,
+    IntensityGrid, LineReprojection, Photometric, PlaneToPlane, PointReprojection, PointToPlane,
+    StereoPointReprojection,
 };
 use crate::robust::{CHI2_1DOF_95, CHI2_2DOF_95, CHI2_3DOF_95, DEFAULT_RGBD_BF, Huber};
 use gfs_core::camera::PinholeCamera;
@@ -56,6 +57,34 @@ pub struct DepthObservation {
     pub inv_sigma2: f64,
 }
 
+/// A reference surface point with its intensity, for the frame's intensity grid (see
+/// [`Photometric`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PhotometricObservation {
+    /// The reference point, world frame, metres (held fixed).
+    pub point_in_world: Vector3<f64>,
+    /// Its intensity in the reference, gray levels.
+    pub intensity: f64,
+    /// Information of the intensity difference, 1/gray level^2.
+    pub inv_sigma2: f64,
+}
+
+/// The photometric term of a pose optimisation: reference points and the frame's
+/// intensity grid they are read in. The exposure may differ between the two: the frame's
+/// intensity is compared with the reference's times the gain that fits the inliers best
+/// at the pose evaluated, `g = sum I_c I_r / sum I_r^2` (the gain eliminated in closed
+/// form: at its optimum the gradient of the reduced cost is `sum J^T e` with the gain
+/// held, so the pose's steps need no gain derivative). A gain estimated once before the
+/// optimisation would absorb part of the motion: a shading ramp looks like a change of
+/// exposure.
+#[derive(Clone, Copy, Debug)]
+pub struct PhotometricTerm<'a> {
+    /// The frame's intensities.
+    pub image: IntensityGrid<'a>,
+    /// The reference points.
+    pub observations: &'a [PhotometricObservation],
+}
+
 /// A plane of the frame associated with a map plane (see [`PlaneToPlane`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlaneObservation {
@@ -99,14 +128,16 @@ impl PlaneObservation {
     }
 }
 
-/// The dense geometry terms of a pose optimisation besides points and lines: depth
-/// point-to-plane pairs and plane-to-plane observations.
+/// The dense terms of a pose optimisation besides points and lines: depth
+/// point-to-plane pairs, plane-to-plane observations and the photometric term.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SurfaceObservations<'a> {
     /// Depth points paired with reference surface elements.
     pub depth: &'a [DepthObservation],
     /// Frame planes associated with map planes.
     pub planes: &'a [PlaneObservation],
+    /// Reference intensities read in the frame's image, when any.
+    pub photometric: Option<PhotometricTerm<'a>>,
 }
 
 /// Parameters of [`optimize_pose`] (the odometry's TOML table `[tracking.pose]`).
@@ -138,6 +169,9 @@ pub struct PoseOptimizerConfig {
     /// Chi-square threshold (and Huber `sqrt`) of a whitened plane-to-plane error;
     /// default 7.815 (3 dof, 95 %: two of the normal, one of the offset).
     pub plane_chi2: f64,
+    /// Chi-square threshold (and Huber `sqrt`) of a whitened photometric error;
+    /// default 3.841 (1 dof, 95 %).
+    pub photometric_chi2: f64,
 }
 
 impl Default for PoseOptimizerConfig {
@@ -152,6 +186,7 @@ impl Default for PoseOptimizerConfig {
             line_chi2: CHI2_2DOF_95,
             depth_chi2: CHI2_1DOF_95,
             plane_chi2: CHI2_3DOF_95,
+            photometric_chi2: CHI2_1DOF_95,
         }
     }
 }
@@ -177,6 +212,10 @@ pub struct PoseResult {
     pub plane_inliers: Vec<bool>,
     /// Number of `true` in `plane_inliers`.
     pub num_plane_inliers: usize,
+    /// Per photometric observation (same order as the input): inlier at the final pose.
+    pub photometric_inliers: Vec<bool>,
+    /// Number of `true` in `photometric_inliers`.
+    pub num_photometric_inliers: usize,
     /// Information matrix `J^T Omega J` of the inliers at the final pose (no kernel),
     /// in the left perturbation `[rho; phi]`: which directions the data constrain.
     pub information: Matrix6<f64>,
@@ -204,6 +243,7 @@ impl PoseResult {
             + self.num_line_inliers
             + self.num_depth_inliers
             + self.num_plane_inliers
+            + self.num_photometric_inliers
     }
 }
 
@@ -257,14 +297,20 @@ pub fn optimize_pose_with_depth(
     config: &PoseOptimizerConfig,
     result: &mut PoseResult,
 ) {
-    let SurfaceObservations { depth, planes } = surfaces;
+    let SurfaceObservations {
+        depth,
+        planes,
+        photometric,
+    } = surfaces;
     let problem = PoseProblem {
         camera,
         points,
         lines,
         depth,
         planes,
+        photometric,
         plane_huber: Huber::from_chi2(config.plane_chi2),
+        photometric_huber: Huber::from_chi2(config.photometric_chi2),
         depth_huber: Huber::from_chi2(config.depth_chi2),
         point_huber: Huber::from_chi2(config.point_chi2),
         point_depth_huber: Huber::from_chi2(config.point_depth_chi2),
@@ -280,6 +326,10 @@ pub fn optimize_pose_with_depth(
     result.depth_inliers.resize(depth.len(), true);
     result.plane_inliers.clear();
     result.plane_inliers.resize(planes.len(), true);
+    result.photometric_inliers.clear();
+    result
+        .photometric_inliers
+        .resize(photometric.map_or(0, |p| p.observations.len()), true);
     result.iterations = 0;
     result.converged = false;
     // Every observation that can be evaluated starts as an inlier (ORB-SLAM2).
@@ -289,6 +339,7 @@ pub fn optimize_pose_with_depth(
         line: f64::INFINITY,
         depth: f64::INFINITY,
         plane: f64::INFINITY,
+        photometric: f64::INFINITY,
     };
     problem.classify(&pose, &unbounded, result);
     let thresholds = Thresholds {
@@ -297,6 +348,7 @@ pub fn optimize_pose_with_depth(
         line: config.line_chi2,
         depth: config.depth_chi2,
         plane: config.plane_chi2,
+        photometric: config.photometric_chi2,
     };
     for round in 0..config.rounds {
         if result.inlier_count() == 0 {
@@ -329,7 +381,9 @@ struct PoseProblem<'a> {
     lines: &'a [LineObservation],
     depth: &'a [DepthObservation],
     planes: &'a [PlaneObservation],
+    photometric: Option<PhotometricTerm<'a>>,
     plane_huber: Huber,
+    photometric_huber: Huber,
     depth_huber: Huber,
     point_huber: Huber,
     point_depth_huber: Huber,
@@ -344,6 +398,7 @@ struct Thresholds {
     line: f64,
     depth: f64,
     plane: f64,
+    photometric: f64,
 }
 
 /// The normal equations of one linearisation.
@@ -396,6 +451,45 @@ impl PoseProblem<'_> {
         }
     }
 
+    /// Whitened squared photometric error at `gain`; `None` behind the camera or off
+    /// the image.
+    fn photometric_residual2(
+        &self,
+        term: &PhotometricTerm<'_>,
+        pose: &Isometry3<f64>,
+        obs: &PhotometricObservation,
+        gain: f64,
+    ) -> Option<f64> {
+        let e = Photometric {
+            intensity: gain * obs.intensity,
+        }
+        .error(self.camera, &term.image, pose, &obs.point_in_world)?;
+        Some(obs.inv_sigma2 * e * e)
+    }
+
+    /// The frame's gain over the reference at `pose`, least squares over the
+    /// observations flagged in `inliers` that project into the image; 1 without any.
+    fn photometric_gain(
+        &self,
+        term: &PhotometricTerm<'_>,
+        pose: &Isometry3<f64>,
+        inliers: &[bool],
+    ) -> f64 {
+        let (mut cross, mut square) = (0.0, 0.0);
+        for (obs, _) in term.observations.iter().zip(inliers).filter(|(_, f)| **f) {
+            let p_c = pose * nalgebra::Point3::from(obs.point_in_world);
+            if let Some(value) = self
+                .camera
+                .project(&p_c)
+                .and_then(|uv| term.image.intensity(uv.x, uv.y))
+            {
+                cross += obs.inv_sigma2 * value * obs.intensity;
+                square += obs.inv_sigma2 * obs.intensity * obs.intensity;
+            }
+        }
+        if square > 0.0 { cross / square } else { 1.0 }
+    }
+
     fn line_error(&self, pose: &Isometry3<f64>, obs: &LineObservation) -> Option<Vector2<f64>> {
         LineReprojection { coeffs: obs.coeffs }.error(self.camera, pose, &obs.endpoints_in_world)
     }
@@ -428,6 +522,16 @@ impl PoseProblem<'_> {
             let s = obs.whitened_error(pose).norm_squared();
             *flag = s.is_finite() && s <= thresholds.plane;
         }
+        if let Some(term) = &self.photometric {
+            let gain = self.photometric_gain(term, pose, &result.photometric_inliers);
+            for (flag, obs) in result.photometric_inliers.iter_mut().zip(term.observations) {
+                *flag = obs.inv_sigma2 > 0.0
+                    && self
+                        .photometric_residual2(term, pose, obs, gain)
+                        .is_some_and(|s| s <= thresholds.photometric);
+            }
+        }
+        result.num_photometric_inliers = result.photometric_inliers.iter().filter(|&&f| f).count();
         result.num_plane_inliers = result.plane_inliers.iter().filter(|&&f| f).count();
         result.num_depth_inliers = result.depth_inliers.iter().filter(|&&f| f).count();
         result.num_point_inliers = result.point_inliers.iter().filter(|&&f| f).count();
@@ -487,6 +591,26 @@ impl PoseProblem<'_> {
         {
             let s = obs.whitened_error(pose).norm_squared();
             cost += if robust { self.plane_huber.cost(s) } else { s };
+        }
+        if let Some(term) = &self.photometric {
+            let gain = self.photometric_gain(term, pose, &result.photometric_inliers);
+            for (obs, _) in term
+                .observations
+                .iter()
+                .zip(&result.photometric_inliers)
+                .filter(|(_, f)| **f)
+            {
+                // A point moved off the image costs as one at the rejection threshold:
+                // a step is not refused for a border point.
+                let s = self
+                    .photometric_residual2(term, pose, obs, gain)
+                    .unwrap_or(self.photometric_huber.delta.powi(2));
+                cost += if robust {
+                    self.photometric_huber.cost(s)
+                } else {
+                    s
+                };
+            }
         }
         cost.is_finite().then_some(cost)
     }
@@ -567,6 +691,27 @@ impl PoseProblem<'_> {
                 1.0,
                 robust.then_some(&self.plane_huber),
             );
+        }
+        if let Some(term) = &self.photometric {
+            let gain = self.photometric_gain(term, pose, &result.photometric_inliers);
+            for (obs, _) in term
+                .observations
+                .iter()
+                .zip(&result.photometric_inliers)
+                .filter(|(_, f)| **f)
+            {
+                let r = Photometric {
+                    intensity: gain * obs.intensity,
+                };
+                if let Some(l) = r.linearize(self.camera, &term.image, pose, &obs.point_in_world) {
+                    n.add(
+                        &l.d_pose,
+                        &nalgebra::Vector1::new(l.error),
+                        obs.inv_sigma2,
+                        robust.then_some(&self.photometric_huber),
+                    );
+                }
+            }
         }
         n
     }
@@ -711,7 +856,7 @@ mod tests {
             &[],
             SurfaceObservations {
                 depth: &depth,
-                planes: &[],
+                ..SurfaceObservations::default()
             },
             &config,
             &mut result,

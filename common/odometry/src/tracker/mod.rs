@@ -84,6 +84,7 @@ pub struct Tracker {
     correspondences: Vec<Correspondence>,
     correspondence_keypoints: Vec<(usize, MapPointId)>,
     depth_associator: DepthAssociator,
+    photometric_associator: crate::photometric_alignment::PhotometricAssociator,
     /// Depth pairs of the last association pass.
     depth_pairs: usize,
     plane_associator: PlaneAssociator,
@@ -121,6 +122,7 @@ impl Tracker {
             correspondences: Vec::new(),
             correspondence_keypoints: Vec::new(),
             depth_associator: DepthAssociator::default(),
+            photometric_associator: Default::default(),
             depth_pairs: 0,
             plane_associator: PlaneAssociator::default(),
             plane_pairs: Vec::new(),

@@ -12,6 +12,7 @@ mod line;
 mod manhattan;
 mod parallel;
 mod perpendicular;
+mod photometric;
 mod plane;
 mod plane_axis;
 mod plane_pairs;
@@ -24,6 +25,7 @@ pub use line::{LineLinearization, LineReprojection};
 pub use manhattan::{ManhattanAxis, ManhattanLinearization};
 pub use parallel::{ParallelLinearization, ParallelLines};
 pub use perpendicular::{PerpendicularLinearization, PerpendicularLines};
+pub use photometric::{IntensityGrid, Photometric, PhotometricLinearization};
 pub use plane::{PlaneLinearization, PlaneToPlane, plane_plus, tangent_basis};
 pub use plane_axis::{PlaneAxis, PlaneAxisLinearization};
 pub use plane_pairs::{

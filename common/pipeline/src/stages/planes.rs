@@ -6,7 +6,7 @@ use super::context::{POLL, StageContext, StageError, mark_ready};
 use crate::wire::{WireLine, WireManhattan, WirePose};
 use gfs_ipc::{Mode, Service, Stage, TopicSubscriber, encode_message, frame_view, topics};
 use gfs_lines::Line3;
-use gfs_odometry::{FrameSurfaces, StructureExtractor};
+use gfs_odometry::{DepthGrid, FrameSurfaces, StructureExtractor};
 use nalgebra::Rotation3;
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -90,6 +90,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         let mut axes = None;
         let mut extracted = false;
+        structure.surfaces(false, false, &mut surfaces);
         if use_manhattan {
             // Lockstep: the pose of frame k-1 was published before frame k, but a
             // restarted stage may see the frame before the pose topic's history.
@@ -152,6 +153,16 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                             tracing::warn!(frame = id, "planes: {e}");
                             None
                         });
+                    // The surfaces are taken while the frame is at hand: the depth grid
+                    // carries the gray level of each node's cell.
+                    if extracted && surfaces_publisher.is_some() {
+                        structure.surfaces(send_planes, send_depth, &mut surfaces);
+                        if send_depth {
+                            surfaces
+                                .depth
+                                .sample_intensity(&frame.gray(), DepthGrid::INTENSITY_CELL_PX);
+                        }
+                    }
                 }
                 Err(e) => tracing::warn!(frame = id, "planes: bad frame: {e}"),
             }
@@ -168,11 +179,6 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         if let Some(surfaces_publisher) = &surfaces_publisher {
             // A frame whose extraction failed sends empty surfaces: the tracker's join
             // waits for this part of every frame.
-            structure.surfaces(
-                send_planes && extracted,
-                send_depth && extracted,
-                &mut surfaces,
-            );
             match encode_message(&surfaces, &mut surface_bytes) {
                 Ok(_) => surfaces_publisher.publish_slice(&header, &surface_bytes)?,
                 Err(e) => {
