@@ -148,6 +148,14 @@ pub struct KeyframeConfig {
     pub redundant_line_fraction: f32,
     /// Other keyframes that must see a landmark for it to count as redundant. Default 3.
     pub redundant_observers: usize,
+    /// ... or this many, one of them from an earlier pass over the place (made before
+    /// the last loop was closed and at least `[loop_closing] min_keyframe_gap`
+    /// keyframes older): once a loop is closed the camera is known to walk mapped
+    /// places again, and a keyframe made there duplicates the earlier pass's. Default 2:
+    /// the 3000-frame synthetic loop then keeps 62 keyframes instead of 97, flat after
+    /// the fourth lap, for the same ATE; with 2 for every keyframe (no loop needed) the
+    /// low-texture rooms lost 1-1.5 mm.
+    pub revisit_observers: usize,
     /// Safety cap on the keyframes of the global map, not its operating bound: the map
     /// grows with the area explored and redundant keyframes are culled, so on a room
     /// walked again and again it stays far below this. Beyond it the oldest keyframes
@@ -168,6 +176,7 @@ impl Default for KeyframeConfig {
             redundant_point_fraction: 0.9,
             redundant_line_fraction: 0.8,
             redundant_observers: 3,
+            revisit_observers: 2,
             max_keyframes: 500,
         }
     }

@@ -51,6 +51,9 @@ pub struct Mapper {
     grid: KeyPointGrid,
     nearby: Vec<usize>,
     planes: PlaneTrackingConfig,
+    /// `[loop_closing] min_keyframe_gap`: how much older a keyframe of an earlier pass
+    /// over a place is.
+    earlier_pass_gap: u64,
 }
 
 impl Mapper {
@@ -72,6 +75,7 @@ impl Mapper {
             camera,
             scale,
             close_depth_m: config.tracking.close_depth_m,
+            earlier_pass_gap: config.loop_closing.min_keyframe_gap,
         }
     }
 
@@ -379,9 +383,16 @@ impl Mapper {
     }
 
     /// Removes covisible keyframes whose points **and** lines are mostly seen by at least
-    /// `redundant_observers` other keyframes (paper: redundancy on both feature kinds).
+    /// `redundant_observers` other keyframes (paper: redundancy on both feature kinds),
+    /// or by `revisit_observers` when one of them is of an earlier pass over the place.
     fn cull_keyframes(&mut self, map: &mut Map, current: KeyFrameId) {
         let first = map.keyframe_ids().first().copied();
+        let redundant = Redundancy {
+            observers: self.keyframes.redundant_observers,
+            revisit_observers: self.keyframes.revisit_observers,
+            closed_through: map.closed_through(),
+            gap: self.earlier_pass_gap,
+        };
         for (kf, _) in map.connected(current) {
             if Some(kf) == first || kf == current {
                 continue;
@@ -389,7 +400,8 @@ impl Mapper {
             let Some(keyframe) = map.keyframe(kf) else {
                 continue;
             };
-            let observers = self.keyframes.redundant_observers;
+            // Other keyframes besides `kf` itself.
+            let observers = redundant.observers_for(kf, &map.connected(kf)) + 1;
             let (mut points, mut redundant_points) = (0usize, 0usize);
             for (i, id) in keyframe.point_ids.iter().enumerate() {
                 let Some(p) = id.and_then(|id| map.point(id)) else {
@@ -399,13 +411,13 @@ impl Mapper {
                     continue;
                 }
                 points += 1;
-                redundant_points += usize::from(p.observations.len() > observers);
+                redundant_points += usize::from(p.observations.len() >= observers);
             }
             let (mut lines, mut redundant_lines) = (0usize, 0usize);
             for id in keyframe.line_ids.iter().flatten() {
                 let Some(l) = map.line(*id) else { continue };
                 lines += 1;
-                redundant_lines += usize::from(l.observations.len() > observers);
+                redundant_lines += usize::from(l.observations.len() >= observers);
             }
             let points_redundant = points > 0
                 && redundant_points as f32
@@ -442,6 +454,32 @@ impl Mapper {
             .collect();
         for kf in old {
             map.remove_keyframe(kf);
+        }
+    }
+}
+
+/// How many other keyframes must see a keyframe's landmark for it to count towards the
+/// keyframe's redundancy.
+struct Redundancy {
+    observers: usize,
+    revisit_observers: usize,
+    closed_through: Option<KeyFrameId>,
+    gap: u64,
+}
+
+impl Redundancy {
+    /// `revisit_observers` for a keyframe of a place an earlier pass mapped (connected
+    /// to a keyframe made before the last loop closed and at least `gap` keyframes
+    /// before it: `connected` are its connected keyframes), else `observers`.
+    fn observers_for(&self, kf: KeyFrameId, connected: &[(KeyFrameId, u32)]) -> usize {
+        let earlier_pass = |k: KeyFrameId| {
+            self.closed_through
+                .is_some_and(|closed| k <= closed && k.0.saturating_add(self.gap) <= kf.0)
+        };
+        if connected.iter().any(|(k, _)| earlier_pass(*k)) {
+            self.revisit_observers
+        } else {
+            self.observers
         }
     }
 }
@@ -545,5 +583,36 @@ mod tests {
         // point and line); the first keyframe and the newest are never culled.
         assert!(map.keyframe(ids[1]).is_none());
         assert!(map.keyframe(ids[0]).is_some() && map.keyframe(ids[3]).is_some());
+    }
+
+    #[test]
+    fn a_keyframe_of_a_place_an_earlier_pass_mapped_needs_fewer_observers() {
+        let connected = |ids: &[u64]| -> Vec<(KeyFrameId, u32)> {
+            ids.iter().map(|&k| (KeyFrameId(k), 30)).collect()
+        };
+        let mut rule = Redundancy {
+            observers: 3,
+            revisit_observers: 2,
+            closed_through: None,
+            gap: 20,
+        };
+        let kf = KeyFrameId(50);
+        assert_eq!(
+            rule.observers_for(kf, &connected(&[49, 5])),
+            3,
+            "no loop yet"
+        );
+        rule.closed_through = Some(KeyFrameId(34));
+        assert_eq!(
+            rule.observers_for(kf, &connected(&[49, 5])),
+            2,
+            "5: earlier pass"
+        );
+        assert_eq!(
+            rule.observers_for(kf, &connected(&[49, 40])),
+            3,
+            "40: after the loop"
+        );
+        assert_eq!(rule.observers_for(KeyFrameId(30), &connected(&[29, 28])), 3);
     }
 }

@@ -148,6 +148,13 @@ impl KeyframeConfig {
             self.redundant_line_fraction.into(),
         )?;
         t.at_least("redundant_observers", self.redundant_observers as u64, 1)?;
+        t.at_least("revisit_observers", self.revisit_observers as u64, 1)?;
+        t.require(
+            "revisit_observers",
+            self.revisit_observers as f64,
+            self.revisit_observers <= self.redundant_observers,
+            "at most redundant_observers",
+        )?;
         t.require(
             "max_keyframes",
             self.max_keyframes,
