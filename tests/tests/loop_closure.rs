@@ -12,11 +12,11 @@
 //! lap leaves fewer keyframes in the map than the first (its landmarks are matched
 //! again).
 
+mod common;
+
+use common::in_process::InProcess;
 use gfs_dataset::{EVO_MAX_DIFF_S, Trajectory, evaluate};
-use gfs_lines::extractor::LineConfig;
-use gfs_odometry::{FinalTrajectory, FramePose, Frontend, Odometry, OdometryConfig};
-use gfs_planes::PlaneConfig;
-use gfs_points::OrbConfig;
+use gfs_odometry::{FinalTrajectory, FramePose, OdometryConfig};
 use gfs_synth::{SynthConfig, SynthSequence, TrajectoryKind};
 use nalgebra::Isometry3;
 
@@ -28,8 +28,7 @@ const FIRST_FRAMES: usize = 30;
 
 /// One odometry with its front end and what it published.
 struct Run {
-    frontend: Frontend,
-    odometry: Odometry,
+    vo: InProcess,
     finals: FinalTrajectory,
     published: Vec<FramePose>,
     map_poses: Vec<Isometry3<f64>>,
@@ -39,27 +38,8 @@ struct Run {
 
 impl Run {
     fn new(sequence: &SynthSequence, config: OdometryConfig) -> Self {
-        let camera = sequence.config().camera;
-        let (points, lines) = (OrbConfig::default(), LineConfig::default());
-        let frontend = Frontend::new(
-            camera,
-            &points,
-            &lines,
-            &PlaneConfig::default(),
-            config.tracking.use_lines,
-            config.tracking.use_manhattan,
-        )
-        .unwrap();
-        let odometry = Odometry::new(
-            config,
-            camera,
-            f64::from(points.scale_factor),
-            points.levels as u8,
-            &lines.grid,
-        );
         Self {
-            frontend,
-            odometry,
+            vo: InProcess::new(sequence.config().camera, config),
             finals: FinalTrajectory::with_capacity(FRAMES),
             published: Vec::with_capacity(FRAMES),
             map_poses: Vec::with_capacity(FRAMES),
@@ -68,28 +48,17 @@ impl Run {
     }
 
     fn step(&mut self, i: usize, frame: &gfs_synth::SynthFrame) {
-        let rotation = self.odometry.predicted_rotation();
-        let features = self
-            .frontend
-            .extract(
-                gfs_core::ids::FrameId(i as u64),
-                frame.timestamp,
-                frame.gray.view(),
-                frame.depth.view(),
-                rotation.as_ref(),
-            )
-            .unwrap();
-        let before = *self.odometry.map_from_odom();
-        let pose = self.odometry.process(features).unwrap();
-        if before != *self.odometry.map_from_odom() {
+        let before = *self.vo.odometry.map_from_odom();
+        let pose = self.vo.process(i, frame);
+        if before != *self.vo.odometry.map_from_odom() {
             self.corrected_after.push(i);
         }
         self.finals.record(
-            self.odometry.anchor(&pose),
-            self.odometry.map_from_odom() * pose.world_from_camera,
+            self.vo.odometry.anchor(&pose),
+            self.vo.odometry.map_from_odom() * pose.world_from_camera,
         );
         self.map_poses
-            .push(self.odometry.map_from_odom() * pose.world_from_camera);
+            .push(self.vo.odometry.map_from_odom() * pose.world_from_camera);
         self.published.push(pose);
     }
 }
@@ -145,16 +114,16 @@ fn two_laps_of_the_room_close_a_loop_halve_the_ate_and_keep_the_odometry_continu
         truth.push(frame.timestamp, frame.pose);
         true_poses.push(frame.pose);
         match i {
-            FIRST_FRAMES => first_keyframes = on.odometry.map().keyframe_ids(),
-            LAP => after_lap = on.odometry.map().keyframe_count(),
+            FIRST_FRAMES => first_keyframes = on.vo.odometry.map().keyframe_ids(),
+            LAP => after_lap = on.vo.odometry.map().keyframe_count(),
             _ => {}
         }
     }
-    let tracking = on.odometry.tracking();
+    let tracking = on.vo.odometry.tracking();
     let old_in = |ids: &[gfs_core::ids::KeyFrameId]| {
         ids.iter().filter(|k| first_keyframes.contains(k)).count()
     };
-    let at_end = on.odometry.map().keyframe_count();
+    let at_end = on.vo.odometry.map().keyframe_count();
     println!(
         "keyframes: {} made in the first {FIRST_FRAMES} frames, {after_lap} in the map after          one lap, {at_end} after two; back at the start the tracker's map holds {}          keyframes ({} of the first), its local map {:?}",
         first_keyframes.len(),
@@ -171,10 +140,10 @@ fn two_laps_of_the_room_close_a_loop_halve_the_ate_and_keep_the_odometry_continu
         at_end - after_lap <= 2 * after_lap / 3,
         "{after_lap} keyframes after one lap, {at_end} after two"
     );
-    let loops = on.odometry.loops();
+    let loops = on.vo.odometry.loops();
     assert!(!loops.is_empty(), "no loop closed");
-    assert!(off.odometry.loops().is_empty());
-    let finals = on.finals.finish(on.odometry.map(), &on.published);
+    assert!(off.vo.odometry.loops().is_empty());
+    let finals = on.finals.finish(on.vo.odometry.map(), &on.published);
     let ate_on = ate(
         &truth,
         finals.iter().map(|p| (p.timestamp, p.world_from_camera)),

@@ -3,11 +3,11 @@
 //! frames, the odometry tracks them, and the ATE (SE(3)-aligned, as `gfsvo eval`) is
 //! asserted, with the number of untracked frames.
 
+mod common;
+
+use common::in_process::InProcess;
 use gfs_dataset::{EVO_MAX_DIFF_S, Trajectory, evaluate};
-use gfs_lines::extractor::LineConfig;
-use gfs_odometry::{Frontend, Odometry, OdometryConfig, TrackingStatus};
-use gfs_planes::PlaneConfig;
-use gfs_points::OrbConfig;
+use gfs_odometry::{OdometryConfig, TrackingStatus};
 use gfs_synth::{NoiseConfig, SceneKind, SynthConfig, SynthSequence, TrajectoryKind};
 
 struct RunResult {
@@ -31,45 +31,12 @@ fn run(
         noise,
         ..SynthConfig::default()
     });
-    let camera = sequence.config().camera;
-    let (points, lines, planes) = (
-        OrbConfig::default(),
-        LineConfig::default(),
-        PlaneConfig::default(),
-    );
-    let mut frontend = Frontend::new(
-        camera,
-        &points,
-        &lines,
-        &planes,
-        config.tracking.use_lines,
-        config.tracking.use_manhattan,
-    )
-    .unwrap();
-    frontend.set_keep_depth(config.tracking.use_depth_alignment);
-    frontend.set_keep_planes(config.tracking.use_planes);
-    let mut odometry = Odometry::new(
-        config,
-        camera,
-        f64::from(points.scale_factor),
-        points.levels as u8,
-        &lines.grid,
-    );
+    let mut vo = InProcess::new(sequence.config().camera, config);
     let (mut estimate, mut truth) = (Trajectory::new(), Trajectory::new());
     let (mut predicted, mut relocalised, mut degraded) = (0, 0, 0);
     for i in 0..sequence.len() {
         let frame = sequence.render(i);
-        let rotation = odometry.predicted_rotation();
-        let features = frontend
-            .extract(
-                gfs_core::ids::FrameId(i as u64),
-                frame.timestamp,
-                frame.gray.view(),
-                frame.depth.view(),
-                rotation.as_ref(),
-            )
-            .unwrap();
-        let pose = odometry.process(features).unwrap();
+        let pose = vo.process(i, &frame);
         predicted += usize::from(pose.status == TrackingStatus::Predicted);
         relocalised += usize::from(pose.status == TrackingStatus::Relocalised);
         degraded += usize::from(pose.status == TrackingStatus::Degraded);

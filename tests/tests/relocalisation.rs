@@ -8,10 +8,10 @@
 //! The tracker relocalises only around its reference keyframe (where it was lost, 150
 //! degrees on), so the start of the lap is found by the mapping half, in its whole map.
 
-use gfs_lines::extractor::LineConfig;
-use gfs_odometry::{Frontend, Odometry, OdometryConfig, TrackingStatus};
-use gfs_planes::PlaneConfig;
-use gfs_points::OrbConfig;
+mod common;
+
+use common::in_process::InProcess;
+use gfs_odometry::{OdometryConfig, TrackingStatus};
 use gfs_synth::{SynthConfig, SynthSequence, TrajectoryKind};
 use nalgebra::Isometry3;
 use std::ops::Range;
@@ -27,8 +27,7 @@ const BACK: Range<usize> = 350..380;
 const MAX_FRAMES_TO_RELOCALISE: usize = 3;
 
 struct Run {
-    frontend: Frontend,
-    odometry: Odometry,
+    vo: InProcess,
     sequence: SynthSequence,
     /// `T_wc` of frame 0, which is the odometry's world.
     origin: Isometry3<f64>,
@@ -40,22 +39,11 @@ impl Run {
     /// and degrees.
     fn step(&mut self, i: usize) -> (TrackingStatus, f64, f64) {
         let frame = self.sequence.render(i);
-        let rotation = self.odometry.predicted_rotation();
-        let features = self
-            .frontend
-            .extract(
-                gfs_core::ids::FrameId(i as u64),
-                frame.timestamp,
-                frame.gray.view(),
-                frame.depth.view(),
-                rotation.as_ref(),
-            )
-            .unwrap();
-        let pose = self.odometry.process(features).unwrap();
-        if let Some(t) = self.odometry.timings().relocalisation {
+        let pose = self.vo.process(i, &frame);
+        if let Some(t) = self.vo.odometry.timings().relocalisation {
             self.relocalisation_ms.push(t.as_secs_f64() * 1e3);
         }
-        let estimate = self.odometry.map_from_odom() * pose.world_from_camera;
+        let estimate = self.vo.odometry.map_from_odom() * pose.world_from_camera;
         let error = (self.origin.inverse() * frame.pose).inverse() * estimate;
         (
             pose.status,
@@ -67,6 +55,7 @@ impl Run {
     fn blind(&mut self, frames: Range<usize>) {
         for i in frames {
             let pose = self
+                .vo
                 .odometry
                 .skip(gfs_core::ids::FrameId(i as u64), self.sequence.timestamp(i));
             assert_eq!(pose.status, TrackingStatus::Predicted, "frame {i}");
@@ -85,27 +74,8 @@ fn a_camera_moved_while_blind_is_found_in_the_whole_map_and_nowhere_else() {
     // The frames of the unmapped wall are lost one after the other; a new local map
     // after five of them would drop the old one (the mapping half holds one map).
     config.tracking.frames_before_new_map = 30;
-    let camera = sequence.config().camera;
-    let (points, lines) = (OrbConfig::default(), LineConfig::default());
-    let frontend = Frontend::new(
-        camera,
-        &points,
-        &lines,
-        &PlaneConfig::default(),
-        config.tracking.use_lines,
-        config.tracking.use_manhattan,
-    )
-    .unwrap();
-    let odometry = Odometry::new(
-        config,
-        camera,
-        f64::from(points.scale_factor),
-        points.levels as u8,
-        &lines.grid,
-    );
     let mut run = Run {
-        frontend,
-        odometry,
+        vo: InProcess::new(sequence.config().camera, config),
         origin: sequence.pose(0),
         sequence,
         relocalisation_ms: Vec::new(),
@@ -116,7 +86,7 @@ fn a_camera_moved_while_blind_is_found_in_the_whole_map_and_nowhere_else() {
         assert!(status.is_tracked(), "frame {i}: {status}");
         mapped.push(metres);
     }
-    let keyframes = run.odometry.map().keyframe_count();
+    let keyframes = run.vo.odometry.map().keyframe_count();
     run.blind(MAPPED.end..UNMAPPED.start);
     for i in UNMAPPED {
         let (status, _, _) = run.step(i);
@@ -140,7 +110,7 @@ fn a_camera_moved_while_blind_is_found_in_the_whole_map_and_nowhere_else() {
         match found {
             None if status == TrackingStatus::Relocalised => {
                 assert!(
-                    run.odometry.timings().relocalisation.is_some(),
+                    run.vo.odometry.timings().relocalisation.is_some(),
                     "frame {i} relocalised by the tracker, not in the mapping half"
                 );
                 found = Some(i);

@@ -401,7 +401,7 @@ impl Mapper {
                 continue;
             };
             // Other keyframes besides `kf` itself.
-            let observers = redundant.observers_for(kf, &map.connected(kf)) + 1;
+            let observers = redundant.observers_for(kf, || map.connected(kf)) + 1;
             let (mut points, mut redundant_points) = (0usize, 0usize);
             for (i, id) in keyframe.point_ids.iter().enumerate() {
                 let Some(p) = id.and_then(|id| map.point(id)) else {
@@ -470,13 +470,18 @@ struct Redundancy {
 impl Redundancy {
     /// `revisit_observers` for a keyframe of a place an earlier pass mapped (connected
     /// to a keyframe made before the last loop closed and at least `gap` keyframes
-    /// before it: `connected` are its connected keyframes), else `observers`.
-    fn observers_for(&self, kf: KeyFrameId, connected: &[(KeyFrameId, u32)]) -> usize {
-        let earlier_pass = |k: KeyFrameId| {
-            self.closed_through
-                .is_some_and(|closed| k <= closed && k.0.saturating_add(self.gap) <= kf.0)
+    /// before it: `connected` gives its connected keyframes, asked for only once a loop
+    /// has closed), else `observers`.
+    fn observers_for(
+        &self,
+        kf: KeyFrameId,
+        connected: impl FnOnce() -> Vec<(KeyFrameId, u32)>,
+    ) -> usize {
+        let Some(closed) = self.closed_through else {
+            return self.observers;
         };
-        if connected.iter().any(|(k, _)| earlier_pass(*k)) {
+        let earlier_pass = |k: KeyFrameId| k <= closed && k.0.saturating_add(self.gap) <= kf.0;
+        if connected().iter().any(|(k, _)| earlier_pass(*k)) {
             self.revisit_observers
         } else {
             self.observers
@@ -598,21 +603,24 @@ mod tests {
         };
         let kf = KeyFrameId(50);
         assert_eq!(
-            rule.observers_for(kf, &connected(&[49, 5])),
+            rule.observers_for(kf, || connected(&[49, 5])),
             3,
             "no loop yet"
         );
         rule.closed_through = Some(KeyFrameId(34));
         assert_eq!(
-            rule.observers_for(kf, &connected(&[49, 5])),
+            rule.observers_for(kf, || connected(&[49, 5])),
             2,
             "5: earlier pass"
         );
         assert_eq!(
-            rule.observers_for(kf, &connected(&[49, 40])),
+            rule.observers_for(kf, || connected(&[49, 40])),
             3,
             "40: after the loop"
         );
-        assert_eq!(rule.observers_for(KeyFrameId(30), &connected(&[29, 28])), 3);
+        assert_eq!(
+            rule.observers_for(KeyFrameId(30), || connected(&[29, 28])),
+            3
+        );
     }
 }

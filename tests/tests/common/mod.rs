@@ -12,6 +12,8 @@ use std::process::{Child, Command, Stdio};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
+pub mod in_process;
+
 pub const FRAMES: usize = 150;
 pub const STAGES: [&str; 7] = [
     "source", "points", "lines", "planes", "tracker", "mapper", "loop",
