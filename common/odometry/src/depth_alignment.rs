@@ -64,6 +64,18 @@ pub struct DepthAlignmentConfig {
     /// 1.1 / 1.9 / 3.1 mm, the cells' interpolation and edges bias what the features
     /// measured well).
     pub photometric_on_features: bool,
+    /// Frames tracked on geometry, or whose features leave a weak direction, are drawn
+    /// towards the motion model's prediction (`motion_prior.rs`) as far as an unknown
+    /// acceleration of this much moves a frame, `0.5 a dt^2` per axis, m/s^2; 0 = no
+    /// prior; default 12 (6.7 mm at 30 Hz).
+    pub motion_prior_accel_m_s2: f64,
+    /// The rotational counterpart of `motion_prior_accel_m_s2` for frames tracked on
+    /// depth and planes alone, deg/s^2; default 800 (0.44 degrees at 30 Hz).
+    pub motion_prior_angular_accel_deg_s2: f64,
+    /// The same for frames tracked on features, deg/s^2; default 3200 (1.8 degrees at
+    /// 30 Hz: the features measure the rotation; 800 took TUM fr1_rpy from 11.3 to
+    /// 12.5 mm).
+    pub motion_prior_feature_angular_accel_deg_s2: f64,
 }
 
 impl Default for DepthAlignmentConfig {
@@ -79,6 +91,9 @@ impl Default for DepthAlignmentConfig {
             photometric_sigma: 1.0,
             photometric_position_sigma_px: 1.0,
             photometric_on_features: false,
+            motion_prior_accel_m_s2: 12.0,
+            motion_prior_angular_accel_deg_s2: 800.0,
+            motion_prior_feature_angular_accel_deg_s2: 3200.0,
         }
     }
 }

@@ -48,6 +48,7 @@ mod mapper;
 pub mod matching;
 mod messages_check;
 mod motion;
+mod motion_prior;
 mod observation;
 mod odometry;
 mod photometric_alignment;

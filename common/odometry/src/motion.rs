@@ -102,6 +102,15 @@ impl MotionModel {
         self.velocity = Some(kept);
     }
 
+    /// Seconds from the last frame to `timestamp`, when a velocity is known and that
+    /// interval is one a prediction is made over (not equal or reversed timestamps, not
+    /// a gap of over a second).
+    pub fn interval_to(&self, timestamp: f64) -> Option<f64> {
+        self.velocity?;
+        let dt = timestamp - self.last_timestamp?;
+        RATE_INTERVAL_S.contains(&dt).then_some(dt)
+    }
+
     /// The velocity (`current_from_previous`), if known.
     pub fn velocity(&self) -> Option<&Isometry3<f64>> {
         self.velocity.as_ref()

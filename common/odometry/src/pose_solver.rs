@@ -7,6 +7,7 @@ use crate::matching::ScalePyramid;
 use crate::observation::{KeypointMeasurement, LINE_INV_SIGMA2, observed_line};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{MapLineId, MapPointId};
+use gfs_optim::residuals::PosePrior;
 use gfs_optim::{
     DepthObservation, LineObservation, PhotometricObservation, PhotometricTerm, PlaneObservation,
     PointObservation, PoseOptimizerConfig, PoseResult, SurfaceObservations,
@@ -52,6 +53,7 @@ pub struct PoseSolver {
     depth: Vec<DepthObservation>,
     planes: Vec<PlaneObservation>,
     photometric: Vec<PhotometricObservation>,
+    prior: Option<PosePrior>,
     result: PoseResult,
 }
 
@@ -69,6 +71,7 @@ impl PoseSolver {
             depth: Vec::new(),
             planes: Vec::new(),
             photometric: Vec::new(),
+            prior: None,
             result: PoseResult::default(),
         }
     }
@@ -90,6 +93,12 @@ impl PoseSolver {
     pub fn set_photometric(&mut self, observations: &[PhotometricObservation]) {
         self.photometric.clear();
         self.photometric.extend_from_slice(observations);
+    }
+
+    /// The prediction the next [`Self::solve`] draws the pose towards (none until
+    /// set).
+    pub fn set_prior(&mut self, prior: Option<PosePrior>) {
+        self.prior = prior;
     }
 
     /// Per plane observation of the last solve: inlier at its pose.
@@ -174,6 +183,7 @@ impl PoseSolver {
                         image,
                         observations: &self.photometric,
                     }),
+                prior: self.prior,
             },
             &self.config,
             &mut self.result,

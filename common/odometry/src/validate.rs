@@ -116,6 +116,27 @@ impl TrackingConfig {
                 && self.depth.photometric_position_sigma_px >= 0.0,
             "finite, >= 0",
         )?;
+        for (field, value) in [
+            (
+                "motion_prior_accel_m_s2",
+                self.depth.motion_prior_accel_m_s2,
+            ),
+            (
+                "motion_prior_angular_accel_deg_s2",
+                self.depth.motion_prior_angular_accel_deg_s2,
+            ),
+            (
+                "motion_prior_feature_angular_accel_deg_s2",
+                self.depth.motion_prior_feature_angular_accel_deg_s2,
+            ),
+        ] {
+            d.require(
+                field,
+                value,
+                value.is_finite() && value >= 0.0,
+                "finite, >= 0",
+            )?;
+        }
         let q = Table("tracking.planes");
         q.within(
             "max_normal_angle_deg",

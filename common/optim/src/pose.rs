@@ -8,7 +8,7 @@
 use crate::lm::Damping;
 use crate::residuals::{
     IntensityGrid, LineReprojection, Photometric, PlaneToPlane, PointReprojection, PointToPlane,
-    StereoPointReprojection,
+    PosePrior, StereoPointReprojection,
 };
 use crate::robust::{CHI2_1DOF_95, CHI2_2DOF_95, CHI2_3DOF_95, DEFAULT_RGBD_BF, Huber};
 use gfs_core::camera::PinholeCamera;
@@ -128,8 +128,8 @@ impl PlaneObservation {
     }
 }
 
-/// The dense terms of a pose optimisation besides points and lines: depth
-/// point-to-plane pairs, plane-to-plane observations and the photometric term.
+/// The terms of a pose optimisation besides points and lines: depth point-to-plane
+/// pairs, plane-to-plane observations, the photometric term and a prior on the pose.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SurfaceObservations<'a> {
     /// Depth points paired with reference surface elements.
@@ -138,6 +138,10 @@ pub struct SurfaceObservations<'a> {
     pub planes: &'a [PlaneObservation],
     /// Reference intensities read in the frame's image, when any.
     pub photometric: Option<PhotometricTerm<'a>>,
+    /// The motion model's prediction, when the pose is drawn towards it: it holds the
+    /// directions the data leave weak. Not robustified, not counted as an inlier, not
+    /// in [`PoseResult::information`] (which says what the data constrain).
+    pub prior: Option<PosePrior>,
 }
 
 /// Parameters of [`optimize_pose`] (the odometry's TOML table `[tracking.pose]`).
@@ -216,8 +220,9 @@ pub struct PoseResult {
     pub photometric_inliers: Vec<bool>,
     /// Number of `true` in `photometric_inliers`.
     pub num_photometric_inliers: usize,
-    /// Information matrix `J^T Omega J` of the inliers at the final pose (no kernel),
-    /// in the left perturbation `[rho; phi]`: which directions the data constrain.
+    /// Information matrix `J^T Omega J` of the inliers at the final pose (no kernel,
+    /// no prior), in the left perturbation `[rho; phi]`: which directions the data
+    /// constrain.
     pub information: Matrix6<f64>,
     /// RMS of the inliers' residual components (point u / v / disparity errors, line
     /// endpoint distances), pixels, unweighted; 0 without inliers.
@@ -230,7 +235,7 @@ pub struct PoseResult {
     /// degraded).
     pub converged: bool,
     /// Covariance of the converged pose: the inverse of the information `J^T W J` of
-    /// the final inliers at the solution (no robust weights), over the left
+    /// the final inliers at the solution (no robust weights) and the prior, over the left
     /// perturbation `exp(delta) * camera_from_world`, `delta` = (translation, rotation)
     /// in the camera frame. `None` when not converged or the information is singular.
     pub covariance: Option<Matrix6<f64>>,
@@ -301,6 +306,7 @@ pub fn optimize_pose_with_depth(
         depth,
         planes,
         photometric,
+        prior,
     } = surfaces;
     let problem = PoseProblem {
         camera,
@@ -309,6 +315,7 @@ pub fn optimize_pose_with_depth(
         depth,
         planes,
         photometric,
+        prior,
         plane_huber: Huber::from_chi2(config.plane_chi2),
         photometric_huber: Huber::from_chi2(config.photometric_chi2),
         depth_huber: Huber::from_chi2(config.depth_chi2),
@@ -364,11 +371,11 @@ pub fn optimize_pose_with_depth(
     }
     result.converged &= result.inlier_count() > 0;
     result.camera_from_world = pose;
-    result.information = problem.linearize(&pose, result, false).h;
+    let posterior = problem.linearize(&pose, result, false).h;
+    result.information = posterior - prior.map_or_else(Matrix6::zeros, |p| p.information_at(&pose));
     result.rms_error_px = problem.inlier_rms(&pose, result);
     result.covariance = if result.converged {
-        let information = problem.linearize(&pose, result, false).h;
-        information.cholesky().map(|c| c.inverse())
+        posterior.cholesky().map(|c| c.inverse())
     } else {
         None
     };
@@ -382,6 +389,7 @@ struct PoseProblem<'a> {
     depth: &'a [DepthObservation],
     planes: &'a [PlaneObservation],
     photometric: Option<PhotometricTerm<'a>>,
+    prior: Option<PosePrior>,
     plane_huber: Huber,
     photometric_huber: Huber,
     depth_huber: Huber,
@@ -612,6 +620,9 @@ impl PoseProblem<'_> {
                 };
             }
         }
+        if let Some(prior) = &self.prior {
+            cost += prior.cost(pose);
+        }
         cost.is_finite().then_some(cost)
     }
 
@@ -712,6 +723,13 @@ impl PoseProblem<'_> {
                     );
                 }
             }
+        }
+        if let Some(prior) = &self.prior {
+            let l = prior.linearize(pose);
+            let jt_w = l.d_pose.transpose() * prior.information;
+            n.h += jt_w * l.d_pose;
+            n.g += jt_w * l.error;
+            n.cost += l.error.dot(&(prior.information * l.error));
         }
         n
     }
@@ -868,5 +886,53 @@ mod tests {
         assert!(!result.depth_inliers[1] && result.num_depth_inliers == depth.len() - 1);
         let constraint = crate::analyse_constraint(&result.information, 2.0, 0.001);
         assert!(constraint.is_determined(), "{constraint:?}");
+    }
+
+    #[test]
+    fn a_prior_holds_what_one_wall_leaves_free_and_stays_out_of_the_information() {
+        // A wall (z = 3) seen by depth only, 1 mm sigma: it fixes the distance and the
+        // two tilts, not the slide along it nor the turn about its normal. The true pose
+        // is 2 cm nearer than the prediction and 1.5 cm aside.
+        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let truth = Isometry3::translation(0.015, 0.0, 0.02);
+        let predicted = Isometry3::identity();
+        let mut depth = Vec::new();
+        for i in 0..10 {
+            for j in 0..10 {
+                let s = Vector3::new(-1.0 + 0.2 * i as f64, -0.8 + 0.16 * j as f64, 3.0);
+                depth.push(DepthObservation {
+                    point_in_camera: (truth * nalgebra::Point3::from(s)).coords,
+                    surface_in_world: s,
+                    normal_in_world: Vector3::new(0.0, 0.0, -1.0),
+                    inv_sigma2: 1e6,
+                });
+            }
+        }
+        let mut result = PoseResult::default();
+        optimize_pose_with_depth(
+            &camera,
+            &predicted,
+            &[],
+            &[],
+            SurfaceObservations {
+                depth: &depth,
+                prior: Some(PosePrior::isotropic(predicted, 0.005, 0.01)),
+                ..SurfaceObservations::default()
+            },
+            &PoseOptimizerConfig::default(),
+            &mut result,
+        );
+        let t = result.camera_from_world.translation.vector;
+        // The depth moves the camera 2 cm along the normal, to 0.1 mm; along the wall the
+        // pose stays at the prediction.
+        assert!((t.z - 0.02).abs() < 1e-4, "{t}");
+        assert!(t.x.abs() < 1e-4 && t.y.abs() < 1e-4, "{t}");
+        assert!(result.camera_from_world.rotation.angle() < 1e-4);
+        // The information is the wall's alone: three directions free.
+        let constraint = crate::analyse_constraint(&result.information, 2.0, 0.01);
+        assert_eq!(constraint.unconstrained.len(), 3, "{constraint:?}");
+        // The covariance is the posterior's: every direction bounded by the prior.
+        let covariance = result.covariance.expect("covariance with the prior");
+        assert!((covariance[(0, 0)].sqrt() - 0.005).abs() < 1e-4);
     }
 }

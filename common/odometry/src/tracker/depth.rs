@@ -6,9 +6,11 @@
 use super::{TrackedFrame, Tracker};
 use crate::depth_grid::DepthGrid;
 use crate::map::Map;
+use crate::motion_prior::{PriorFor, motion_prior};
 use crate::status::TrackingStatus;
 use gfs_core::ids::KeyFrameId;
 use gfs_optim::analyse_constraint;
+use gfs_optim::residuals::PosePrior;
 use nalgebra::Isometry3;
 
 /// Share of the associated depth pairs that must stay inliers for a frame tracked on
@@ -32,7 +34,10 @@ impl Tracker {
         {
             return false;
         }
-        self.align_depth(map, frame, self.config.depth.photometric_on_features)
+        self.solver.set_prior(self.motion_prior(PriorFor::Features));
+        let aligned = self.align_depth(map, frame, self.config.depth.photometric_on_features);
+        self.solver.set_prior(None);
+        aligned
     }
 
     /// Tracks a frame the features lost on its planes and depth alone (each when
@@ -40,6 +45,7 @@ impl Tracker {
     /// depth pairs held, or planes did, and together they determine the pose (a
     /// direction they leave free would drift where the optimiser let it).
     pub(super) fn track_on_geometry(&mut self, map: &Map, frame: &mut TrackedFrame) -> bool {
+        self.solver.set_prior(self.motion_prior(PriorFor::Geometry));
         if self.config.use_planes {
             self.refine_with_planes(map, frame);
         }
@@ -49,6 +55,7 @@ impl Tracker {
             && frame.inliers.depth as f64 >= MIN_DEPTH_INLIER_SHARE * self.depth_pairs as f64;
         self.keep_plane_inliers(frame);
         self.clear_planes();
+        self.solver.set_prior(None);
         (depth_ok || frame.inliers.planes > 0)
             && self.status_from_information() == TrackingStatus::Tracked
     }
@@ -96,6 +103,12 @@ impl Tracker {
         self.solver.set_depth(&[]);
         self.solver.set_photometric(&[]);
         true
+    }
+
+    /// The frame's prediction as a prior, for a frame tracked on `tracked_on`.
+    fn motion_prior(&self, tracked_on: PriorFor) -> Option<PosePrior> {
+        let (predicted, dt) = self.prediction?;
+        motion_prior(&self.config.depth, &predicted, dt, tracked_on)
     }
 
     /// Keeps the depth of the reference keyframe: when the reference changed to the

@@ -95,6 +95,10 @@ pub struct Tracker {
     /// The directions a frame tracked on geometry alone left free (above `[tracking.
     /// depth] weak_sigma_m`): the motion model does not learn its motion along them.
     unmeasured: Vec<nalgebra::Vector6<f64>>,
+    /// The frame's prediction and the seconds since the last frame, for the prior of
+    /// the depth and geometry passes (`motion_prior.rs`), when the motion model has a
+    /// velocity.
+    prediction: Option<(Isometry3<f64>, f64)>,
 }
 
 impl Tracker {
@@ -128,6 +132,7 @@ impl Tracker {
             plane_pairs: Vec::new(),
             keyframe_depth: None,
             unmeasured: Vec::new(),
+            prediction: None,
             config,
             camera,
         }
@@ -235,6 +240,10 @@ impl Tracker {
             rolling_shutter::compensate(&mut features, &self.camera, &rate, self.config.readout_s);
         }
         self.unmeasured.clear();
+        self.prediction = self
+            .motion
+            .interval_to(features.timestamp)
+            .map(|dt| (predicted, dt));
         let mut frame = TrackedFrame::untracked(features, predicted);
         self.points.index(&frame.features);
         self.lines.index(&frame.features);

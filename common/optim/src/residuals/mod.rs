@@ -18,6 +18,7 @@ mod plane_axis;
 mod plane_pairs;
 mod point;
 mod point_to_plane;
+mod pose_prior;
 mod projection;
 mod stereo;
 
@@ -34,6 +35,7 @@ pub use plane_pairs::{
 };
 pub use point::{PointLinearization, PointReprojection};
 pub use point_to_plane::{PointToPlane, PointToPlaneLinearization};
+pub use pose_prior::{PosePrior, PosePriorLinearization};
 pub use stereo::{StereoPointLinearization, StereoPointReprojection};
 
 #[cfg(test)]
