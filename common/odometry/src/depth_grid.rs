@@ -51,6 +51,11 @@ impl DepthGrid {
         self.points.is_empty()
     }
 
+    /// True when a node has a depth (an unreadable frame's grid has none).
+    pub fn has_depth(&self) -> bool {
+        self.points.iter().any(|p| p[2] > 0.0)
+    }
+
     /// Keeps every `step`-th node of `estimator`'s grid (row and column), reusing the
     /// buffers.
     pub fn sample(&mut self, estimator: &NormalEstimator, step: usize) {

@@ -29,11 +29,16 @@ impl OdometryConfig {
 }
 
 impl FrameFeatures {
-    /// True when the frame has no point and no line: its images were unreadable (the
-    /// pipeline's source publishes a blank frame for them) or show nothing. Every mode
-    /// gives such a frame the motion-model prediction without trying to track it.
+    /// True when the frame has no point, no line, no plane and no depth: its images
+    /// were unreadable (the pipeline's source publishes a blank frame for them) or show
+    /// nothing. Every mode gives such a frame the motion-model prediction without
+    /// trying to track it. A bare wall's depth is not blank: with the depth alignment
+    /// or the planes on it can be tracked.
     pub fn is_blank(&self) -> bool {
-        self.keypoints.is_empty() && self.lines.is_empty()
+        self.keypoints.is_empty()
+            && self.lines.is_empty()
+            && self.planes.is_empty()
+            && !self.depth.has_depth()
     }
 }
 
@@ -328,5 +333,29 @@ mod tests {
             c.validate().unwrap_err().field,
             "loop_closing.search_radius_m"
         );
+        let mut c = OdometryConfig::default();
+        c.tracking.depth.motion_prior_accel_m_s2 = f64::INFINITY;
+        assert_eq!(
+            c.validate().unwrap_err().field,
+            "tracking.depth.motion_prior_accel_m_s2"
+        );
+    }
+
+    #[test]
+    fn a_bare_wall_is_not_a_blank_frame_an_unreadable_one_is() {
+        use crate::testing::{camera, planes_depth};
+        use nalgebra::Isometry3;
+        // No point, no line: a wall 2 m ahead, seen by depth only.
+        let wall = FrameFeatures {
+            depth: planes_depth(&camera(), &Isometry3::identity(), &[([0.0, 0.0, 1.0], 2.0)]),
+            ..FrameFeatures::default()
+        };
+        assert!(wall.depth.points.iter().filter(|p| p[2] > 0.0).count() > 1000);
+        assert!(!wall.is_blank());
+        // An unreadable frame: its grid has nodes but no depth.
+        let mut unreadable = wall.clone();
+        unreadable.depth.points.iter_mut().for_each(|p| *p = [0.0; 3]);
+        assert!(unreadable.is_blank());
+        assert!(FrameFeatures::default().is_blank());
     }
 }
