@@ -30,6 +30,10 @@ impl Normal {
     }
 
     /// Adds a residual with information `info`, robustified when `huber` is given.
+    ///
+    /// Always inlined: it is the inner loop of every block's linearisation, and left
+    /// as a call the 6x6 update goes through memory (measured: tracking 10 % slower).
+    #[inline(always)]
     pub(super) fn add<const R: usize>(
         &mut self,
         j: &SMatrix<f64, R, 6>,

@@ -1,9 +1,9 @@
 //! Depth points against reference surface elements: the projective point-to-plane
 //! distance of dense RGB-D alignment, which holds the pose where the features are weak.
 
-use super::{Block, Gate, InlierFlags, flagged};
+use super::{Block, Gate, flagged};
 use crate::pose::lm::Normal;
-use crate::pose::{DepthObservation, PoseOptimizerConfig, PoseResult};
+use crate::pose::{DepthObservation, PoseOptimizerConfig};
 use crate::residuals::PointToPlane;
 use crate::robust::Huber;
 use nalgebra::{Isometry3, Vector1};
@@ -38,16 +38,7 @@ impl Block for DepthBlock<'_> {
         self.observations.len()
     }
 
-    fn inliers<'r>(&self, result: &'r PoseResult) -> &'r [bool] {
-        &result.depth_inliers
-    }
-
-    fn inlier_flags<'r>(&self, result: &'r mut PoseResult) -> Option<InlierFlags<'r>> {
-        Some(InlierFlags {
-            flags: &mut result.depth_inliers,
-            count: &mut result.num_depth_inliers,
-        })
-    }
+    inlier_fields!(depth_inliers, num_depth_inliers);
 
     fn cost(
         &self,

@@ -1,9 +1,9 @@
 //! Map lines against 2D lines (paper eq. 7): the distances of the projected endpoints
 //! to the observed line, two pixel errors of one sigma.
 
-use super::{Block, Gate, InlierFlags, flagged};
+use super::{Block, Gate, flagged};
 use crate::pose::lm::Normal;
-use crate::pose::{LineObservation, PoseOptimizerConfig, PoseResult};
+use crate::pose::{LineObservation, PoseOptimizerConfig};
 use crate::residuals::LineReprojection;
 use crate::robust::Huber;
 use gfs_core::camera::PinholeCamera;
@@ -42,16 +42,7 @@ impl Block for LineBlock<'_> {
         self.observations.len()
     }
 
-    fn inliers<'r>(&self, result: &'r PoseResult) -> &'r [bool] {
-        &result.line_inliers
-    }
-
-    fn inlier_flags<'r>(&self, result: &'r mut PoseResult) -> Option<InlierFlags<'r>> {
-        Some(InlierFlags {
-            flags: &mut result.line_inliers,
-            count: &mut result.num_line_inliers,
-        })
-    }
+    inlier_fields!(line_inliers, num_line_inliers);
 
     fn cost(
         &self,

@@ -4,6 +4,26 @@
 //! observations are inliers. A new term kind is a new block here and a line in
 //! [`super::problem`].
 
+/// The [`Block`] accessors of a block whose inlier flags and count are the fields
+/// `$flags` and `$count` of [`PoseResult`].
+macro_rules! inlier_fields {
+    ($flags:ident, $count:ident) => {
+        fn inliers<'r>(&self, result: &'r $crate::pose::PoseResult) -> &'r [bool] {
+            &result.$flags
+        }
+
+        fn inlier_flags<'r>(
+            &self,
+            result: &'r mut $crate::pose::PoseResult,
+        ) -> Option<$crate::pose::blocks::InlierFlags<'r>> {
+            Some($crate::pose::blocks::InlierFlags {
+                flags: &mut result.$flags,
+                count: &mut result.$count,
+            })
+        }
+    };
+}
+
 mod depth;
 mod lines;
 mod photometric;

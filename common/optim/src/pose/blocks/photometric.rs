@@ -3,9 +3,9 @@
 //! [`crate::PhotometricTerm`]): the gain is recomputed in every cost, linearisation and
 //! classification, never held from an earlier pose.
 
-use super::{Block, Gate, InlierFlags, flagged};
+use super::{Block, Gate, flagged};
 use crate::pose::lm::Normal;
-use crate::pose::{PhotometricObservation, PhotometricTerm, PoseOptimizerConfig, PoseResult};
+use crate::pose::{PhotometricObservation, PhotometricTerm, PoseOptimizerConfig};
 use crate::residuals::Photometric;
 use crate::robust::Huber;
 use gfs_core::camera::PinholeCamera;
@@ -72,16 +72,7 @@ impl Block for PhotometricBlock<'_> {
         self.term.map_or(0, |t| t.observations.len())
     }
 
-    fn inliers<'r>(&self, result: &'r PoseResult) -> &'r [bool] {
-        &result.photometric_inliers
-    }
-
-    fn inlier_flags<'r>(&self, result: &'r mut PoseResult) -> Option<InlierFlags<'r>> {
-        Some(InlierFlags {
-            flags: &mut result.photometric_inliers,
-            count: &mut result.num_photometric_inliers,
-        })
-    }
+    inlier_fields!(photometric_inliers, num_photometric_inliers);
 
     fn cost(
         &self,

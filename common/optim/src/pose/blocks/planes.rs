@@ -1,9 +1,9 @@
 //! Frame planes against map planes: the plane-to-plane error (normal difference and
 //! offset), whitened by the normal's and the offset's sigmas.
 
-use super::{Block, Gate, InlierFlags, flagged};
+use super::{Block, Gate, flagged};
 use crate::pose::lm::Normal;
-use crate::pose::{PlaneObservation, PoseOptimizerConfig, PoseResult};
+use crate::pose::{PlaneObservation, PoseOptimizerConfig};
 use crate::robust::Huber;
 use nalgebra::Isometry3;
 
@@ -29,16 +29,7 @@ impl Block for PlaneBlock<'_> {
         self.observations.len()
     }
 
-    fn inliers<'r>(&self, result: &'r PoseResult) -> &'r [bool] {
-        &result.plane_inliers
-    }
-
-    fn inlier_flags<'r>(&self, result: &'r mut PoseResult) -> Option<InlierFlags<'r>> {
-        Some(InlierFlags {
-            flags: &mut result.plane_inliers,
-            count: &mut result.num_plane_inliers,
-        })
-    }
+    inlier_fields!(plane_inliers, num_plane_inliers);
 
     fn cost(
         &self,

@@ -2,9 +2,9 @@
 //! measured depth the RGB-D error whose virtual disparity `bf / depth` fixes depth and
 //! scale. The two have their own degrees of freedom, so their own threshold and kernel.
 
-use super::{Block, Gate, InlierFlags, flagged};
+use super::{Block, Gate, flagged};
 use crate::pose::lm::Normal;
-use crate::pose::{PointObservation, PoseOptimizerConfig, PoseResult};
+use crate::pose::{PointObservation, PoseOptimizerConfig};
 use crate::residuals::{PointReprojection, StereoPointReprojection};
 use crate::robust::Huber;
 use gfs_core::camera::PinholeCamera;
@@ -75,16 +75,7 @@ impl Block for PointBlock<'_> {
         self.observations.len()
     }
 
-    fn inliers<'r>(&self, result: &'r PoseResult) -> &'r [bool] {
-        &result.point_inliers
-    }
-
-    fn inlier_flags<'r>(&self, result: &'r mut PoseResult) -> Option<InlierFlags<'r>> {
-        Some(InlierFlags {
-            flags: &mut result.point_inliers,
-            count: &mut result.num_point_inliers,
-        })
-    }
+    inlier_fields!(point_inliers, num_point_inliers);
 
     fn cost(
         &self,
