@@ -1,7 +1,8 @@
-//! The blocks of one pose optimisation in their fixed order. The cost and the normal
-//! equations are summed over the blocks in this order, term by term into one running
-//! sum, so that the order of the floating-point additions (and with it every result) is
-//! that of the observations; [`for_each_block`] is the one place that lists them.
+//! The blocks of one pose optimisation in their fixed order: points, lines, depth pairs,
+//! planes, photometric, prior. The cost and the normal equations are summed over the
+//! blocks in this order, term by term into one running sum, so the order of the
+//! floating-point additions, and with it every result, does not depend on how the terms
+//! are grouped in code; `for_each_block` is the one place that lists them.
 
 use super::blocks::{
     Block, DepthBlock, Gate, LineBlock, PhotometricBlock, PlaneBlock, PointBlock, PriorBlock,
@@ -25,35 +26,18 @@ pub(super) struct PoseProblem<'a> {
 
 /// Runs `$body` with `$block` bound to each block of `$problem` in turn (statically
 /// dispatched: each expansion sees its concrete block). `?` and `return` in `$body`
-/// leave the enclosing function.
+/// leave the enclosing function. The list of fields is the order of the sums.
 macro_rules! for_each_block {
     ($problem:expr, |$block:ident| $body:expr) => {{
         let problem: &PoseProblem<'_> = $problem;
-        {
-            let $block = &problem.points;
-            $body
-        }
-        {
-            let $block = &problem.lines;
-            $body
-        }
-        {
-            let $block = &problem.depth;
-            $body
-        }
-        {
-            let $block = &problem.planes;
-            $body
-        }
-        {
-            let $block = &problem.photometric;
-            $body
-        }
-        {
-            let $block = &problem.prior;
-            $body
-        }
+        for_each_block!(@in problem, $block, $body; points, lines, depth, planes, photometric, prior);
     }};
+    (@in $problem:ident, $block:ident, $body:expr; $($field:ident),*) => {
+        $({
+            let $block = &$problem.$field;
+            $body
+        })*
+    };
 }
 
 impl<'a> PoseProblem<'a> {

@@ -1,8 +1,9 @@
 //! The term kinds of a pose optimisation, one block each. A block holds its borrowed
 //! observations with its kernel and chi-square threshold, and knows the three things a
 //! round asks of it: its cost, its share of the normal equations and which of its
-//! observations are inliers. A new term kind is a new block here and a line in
-//! [`super::problem`].
+//! observations are inliers. A new term kind is a new block here, its field and its
+//! arm in `problem.rs`, its public input in `observations.rs` and its inlier flags in
+//! `result.rs`; the driver and the LM loop do not change.
 
 /// The [`Block`] accessors of a block whose inlier flags and count are the fields
 /// `$flags` and `$count` of [`PoseResult`].
