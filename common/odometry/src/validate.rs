@@ -354,7 +354,11 @@ mod tests {
         assert!(!wall.is_blank());
         // An unreadable frame: its grid has nodes but no depth.
         let mut unreadable = wall.clone();
-        unreadable.depth.points.iter_mut().for_each(|p| *p = [0.0; 3]);
+        unreadable
+            .depth
+            .points
+            .iter_mut()
+            .for_each(|p| *p = [0.0; 3]);
         assert!(unreadable.is_blank());
         assert!(FrameFeatures::default().is_blank());
     }
