@@ -111,7 +111,10 @@ impl LoopCloser {
         let consistent = self
             .groups
             .update(map, &candidates, self.config.consistent_keyframes);
-        let found = consistent.into_iter().find_map(|candidate| {
+        let start = std::time::Instant::now();
+        let mut verified = 0;
+        let found = consistent.iter().find_map(|&candidate| {
+            verified += 1;
             self.verifier.verify(
                 map,
                 &self.places,
@@ -120,7 +123,18 @@ impl LoopCloser {
                 self.config.min_inliers,
                 kf.0,
             )
-        })?;
+        });
+        if verified > 0 {
+            tracing::debug!(
+                keyframe = %kf,
+                candidates = candidates.len(),
+                verified,
+                found = found.is_some(),
+                ms = start.elapsed().as_secs_f64() * 1e3,
+                "loop candidates verified"
+            );
+        }
+        let found = found?;
         let poses = match optimise_loop(map, kf, &found) {
             Ok(poses) => poses,
             Err(e) => {

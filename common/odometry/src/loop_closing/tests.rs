@@ -3,8 +3,8 @@
 
 use super::*;
 use crate::config::OdometryConfig;
-use crate::pose_solver::PoseSolver;
 use crate::map::KeyFrame;
+use crate::pose_solver::PoseSolver;
 use crate::testing::{Scene, camera, first_keyframe, pose, scale};
 use nalgebra::{Isometry3, Translation3};
 
@@ -189,14 +189,23 @@ fn verify_return(
         .collect();
     let mut exhaustive = Vec::new();
     crate::matching::match_descriptors(&descriptors, &place, 50, 0.75, &mut exhaustive);
-    let bow = |kf| places.describe(&map.keyframe(kf).expect("kf").features.point_descriptors).bow;
+    let bow = |kf| {
+        places
+            .describe(&map.keyframe(kf).expect("kf").features.point_descriptors)
+            .bow
+    };
     let similarity = gfs_place::score(&bow(current), &bow(KeyFrameId(0)));
     let config = OdometryConfig::default();
     let solver = PoseSolver::new(config.tracking.pose.clone(), camera(), scale());
     let mut verifier = Verifier::new(camera(), solver);
     let min_inliers = config.loop_closing.min_inliers;
     let found = verifier.verify(&map, &places, current, KeyFrameId(0), min_inliers, 1);
-    (found, truth, exhaustive.iter().flatten().count(), similarity)
+    (
+        found,
+        truth,
+        exhaustive.iter().flatten().count(),
+        similarity,
+    )
 }
 
 /// Flips `bits` random bits of every descriptor.

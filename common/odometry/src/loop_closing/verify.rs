@@ -111,7 +111,8 @@ impl Verifier {
         let mut keypoints = Vec::new();
         let mut pairs = Vec::new();
         for (i, m) in self.matches.iter().enumerate() {
-            let (Some(id), Some(kp)) = (m.and_then(|t| self.place.id(t)), features.keypoints.get(i))
+            let (Some(id), Some(kp)) =
+                (m.and_then(|t| self.place.id(t)), features.keypoints.get(i))
             else {
                 continue;
             };
