@@ -2,10 +2,10 @@
 //! it (the tracker holds only what the mapper sends it, and relocalises there first,
 //! [`crate::relocalise`]). As ORB-SLAM2's `Relocalization`: the keyframes that look like
 //! the frame by bag of words ([`PlaceIndex`], every keyframe of the map) are verified
-//! one after the other by descriptor matching to the points around each (only between
-//! descriptors under the same vocabulary node, [`match_by_nodes`]), RANSAC with depth
-//! and the pose optimisation ([`Verifier::verify_frame`]); the candidate with the most
-//! inliers gives the pose.
+//! one after the other as a loop candidate is ([`Verifier::verify_frame`]: descriptor
+//! matching to the points around each, only between descriptors under the same
+//! vocabulary node, RANSAC with depth and the pose optimisation); the candidate with the
+//! most inliers gives the pose.
 
 use crate::config::OdometryConfig;
 use crate::frame::FrameFeatures;
@@ -14,17 +14,11 @@ use crate::map::Map;
 use crate::matching::ScalePyramid;
 use crate::pose_solver::PoseSolver;
 use gfs_core::camera::PinholeCamera;
-use gfs_core::descriptor::Descriptor;
 use gfs_core::ids::{KeyFrameId, MapPointId};
-use gfs_place::{NodeMatchConfig, match_by_nodes};
 use nalgebra::Isometry3;
 
 /// Keyframes verified per lost frame, the most similar first.
 const CANDIDATES: usize = 5;
-/// Descriptors are compared only under the same vocabulary node at this depth: with the
-/// shipped vocabulary, 79 % of the exhaustive matches for 11 % of the comparisons
-/// ([`gfs_place::Vocabulary::transform_with_features`]).
-const NODE_LEVEL: usize = 1;
 
 /// A lost frame found in the map.
 #[derive(Clone, Debug)]
@@ -73,40 +67,17 @@ impl MapRelocaliser {
         seed: u64,
     ) -> Option<MapRelocalisation> {
         self.sync(map);
-        let candidates = self
-            .places
-            .query(&features.point_descriptors, CANDIDATES, 0.0);
-        let vocabulary = self.places.vocabulary();
-        let (_, frame_nodes) =
-            vocabulary.transform_with_features(&features.point_descriptors, NODE_LEVEL);
-        let by_nodes = |frame: &[Descriptor], place: &[Descriptor], out: &mut Vec<_>| {
-            let (_, place_nodes) = vocabulary.transform_with_features(place, NODE_LEVEL);
-            let mut pairs = Vec::new();
-            let config = NodeMatchConfig::default();
-            match_by_nodes(
-                &frame_nodes,
-                frame,
-                &place_nodes,
-                place,
-                &config,
-                &mut pairs,
-            );
-            out.clear();
-            out.resize(frame.len(), None);
-            for (f, p) in pairs {
-                if let Some(slot) = out.get_mut(f as usize) {
-                    *slot = Some(p as usize);
-                }
-            }
-        };
+        let frame = self.places.describe(&features.point_descriptors);
+        let candidates = self.places.query(&frame.bow, CANDIDATES, 0.0);
         let mut best: Option<MapRelocalisation> = None;
         for candidate in candidates {
             let Some(found) = self.verifier.verify_frame(
                 map,
+                &self.places,
                 features,
+                &frame.nodes,
                 &[],
                 candidate,
-                &by_nodes,
                 self.min_inliers,
                 seed,
             ) else {

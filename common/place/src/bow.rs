@@ -90,9 +90,12 @@ pub struct FeatureVector {
 }
 
 impl FeatureVector {
-    /// Builds from `(node, feature index)` pairs in feature order.
-    pub(crate) fn from_pairs(mut pairs: Vec<(NodeId, u32)>) -> Self {
+    /// Builds from `(node, feature index)` pairs in any order, a pair given twice kept
+    /// once (a feature may sit under several nodes: a map point seen by several
+    /// keyframes, each with its own descriptor).
+    pub fn from_pairs(mut pairs: Vec<(NodeId, u32)>) -> Self {
         pairs.sort_unstable();
+        pairs.dedup();
         let mut groups: Vec<(NodeId, Vec<u32>)> = Vec::new();
         for (node, feature) in pairs {
             match groups.last_mut() {
@@ -159,7 +162,7 @@ mod tests {
 
     #[test]
     fn feature_vectors_pair_features_under_shared_nodes() {
-        let a = FeatureVector::from_pairs(vec![(7, 0), (3, 1), (7, 2), (9, 3)]);
+        let a = FeatureVector::from_pairs(vec![(7, 0), (3, 1), (7, 2), (9, 3), (7, 0)]);
         let b = FeatureVector::from_pairs(vec![(3, 0), (8, 1), (7, 2)]);
         assert_eq!(a.groups()[1], (7, vec![0, 2]));
         let common: Vec<_> = a.common(&b).collect();

@@ -1,7 +1,8 @@
 //! Loop closing: coming back to a place mapped before. After each keyframe, candidates
 //! are looked for by appearance ([`place`], bag of words) and by position in the drifted
 //! estimate ([`detect`]), kept when consistent over consecutive keyframes
-//! ([`consistency`]), verified geometrically ([`verify`]), and a verified loop gives a
+//! ([`consistency`]), verified geometrically ([`verify`]: descriptors matched to the
+//! place's points by vocabulary node, [`place_points`]), and a verified loop gives a
 //! [`LoopCorrection`] ([`correct`]: a pose graph over the keyframes). Applied to the map
 //! ([`correction`]), it moves the keyframes and the landmarks with them and fuses the
 //! current keyframe's matches to the old side, so that tracking and local mapping go on
@@ -17,6 +18,7 @@ mod correct;
 mod correction;
 mod detect;
 mod place;
+mod place_points;
 #[cfg(test)]
 mod tests;
 mod verify;
@@ -25,7 +27,7 @@ pub use consistency::ConsistentGroups;
 pub use correct::optimise_loop;
 pub use correction::{LoopCorrection, apply_correction};
 pub use detect::proximity_candidates;
-pub use place::PlaceIndex;
+pub use place::{Description, NODE_LEVEL, PlaceIndex};
 pub use verify::{LoopMatch, Verifier};
 
 use crate::config::{LoopClosingConfig, OdometryConfig};
@@ -109,10 +111,30 @@ impl LoopCloser {
         let consistent = self
             .groups
             .update(map, &candidates, self.config.consistent_keyframes);
-        let found = consistent.into_iter().find_map(|candidate| {
-            self.verifier
-                .verify(map, kf, candidate, self.config.min_inliers, kf.0)
-        })?;
+        let start = std::time::Instant::now();
+        let mut verified = 0;
+        let found = consistent.iter().find_map(|&candidate| {
+            verified += 1;
+            self.verifier.verify(
+                map,
+                &self.places,
+                kf,
+                candidate,
+                self.config.min_inliers,
+                kf.0,
+            )
+        });
+        if verified > 0 {
+            tracing::debug!(
+                keyframe = %kf,
+                candidates = candidates.len(),
+                verified,
+                found = found.is_some(),
+                ms = start.elapsed().as_secs_f64() * 1e3,
+                "loop candidates verified"
+            );
+        }
+        let found = found?;
         let poses = match optimise_loop(map, kf, &found) {
             Ok(poses) => poses,
             Err(e) => {

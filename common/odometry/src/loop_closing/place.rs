@@ -4,17 +4,38 @@
 //! `DetectLoop`, a candidate must score at least as well as the current keyframe's
 //! least similar connected neighbour (a place is at least as like itself as its own
 //! neighbourhood is), which adapts the threshold to the scene's texture.
+//!
+//! Each keyframe also keeps its features grouped by vocabulary node (its
+//! [`FeatureVector`], made in the same descent of the tree as its bag of words), so
+//! that verifying a candidate compares descriptors only under a shared node
+//! ([`super::place_points`]).
 
 use crate::config::LoopClosingConfig;
 use crate::map::{IdMap, Map};
+use gfs_core::descriptor::Descriptor;
 use gfs_core::ids::KeyFrameId;
-use gfs_place::{BowVector, KeyFrameDatabase, Vocabulary, score};
+use gfs_place::{BowVector, FeatureVector, KeyFrameDatabase, Vocabulary, score};
 
-/// The keyframes of the map as bags of words, kept in step with the map.
+/// Descriptors are compared only under the same vocabulary node at this depth: with the
+/// shipped vocabulary, 79 % of the exhaustive matches for 11 % of the comparisons
+/// ([`gfs_place::Vocabulary::transform_with_features`]).
+pub const NODE_LEVEL: usize = 1;
+
+/// An image as the vocabulary describes it.
+#[derive(Clone, Debug, Default)]
+pub struct Description {
+    /// Its bag of words.
+    pub bow: BowVector,
+    /// Its features grouped by their node at [`NODE_LEVEL`].
+    pub nodes: FeatureVector,
+}
+
+/// The keyframes of the map as bags of words and feature vectors, kept in step with the
+/// map.
 pub struct PlaceIndex {
     vocabulary: Vocabulary,
     database: KeyFrameDatabase<KeyFrameId>,
-    bows: IdMap<KeyFrameId, BowVector>,
+    described: IdMap<KeyFrameId, Description>,
 }
 
 impl Default for PlaceIndex {
@@ -23,7 +44,7 @@ impl Default for PlaceIndex {
         Self {
             database: KeyFrameDatabase::new(vocabulary.num_words()),
             vocabulary,
-            bows: IdMap::default(),
+            described: IdMap::default(),
         }
     }
 }
@@ -33,27 +54,38 @@ impl PlaceIndex {
     /// (after a mapper restart, every keyframe of the restored map).
     pub fn sync(&mut self, map: &Map) {
         let gone: Vec<KeyFrameId> = self
-            .bows
+            .described
             .keys()
             .copied()
             .filter(|k| map.keyframe(*k).is_none())
             .collect();
         for kf in gone {
             self.database.remove(kf);
-            self.bows.remove(&kf);
+            self.described.remove(&kf);
         }
         for kf in map.keyframe_ids() {
-            if self.bows.contains_key(&kf) {
+            if self.described.contains_key(&kf) {
                 continue;
             }
             if let Some(keyframe) = map.keyframe(kf) {
-                let bow = self
-                    .vocabulary
-                    .transform(&keyframe.features.point_descriptors);
-                self.database.add(kf, &bow);
-                self.bows.insert(kf, bow);
+                let description = self.describe(&keyframe.features.point_descriptors);
+                self.database.add(kf, &description.bow);
+                self.described.insert(kf, description);
             }
         }
+    }
+
+    /// The bag of words and the feature vector of an image's `descriptors`.
+    pub fn describe(&self, descriptors: &[Descriptor]) -> Description {
+        let (bow, nodes) = self
+            .vocabulary
+            .transform_with_features(descriptors, NODE_LEVEL);
+        Description { bow, nodes }
+    }
+
+    /// The features of keyframe `kf` grouped by vocabulary node, when it was synced.
+    pub fn nodes(&self, kf: KeyFrameId) -> Option<&FeatureVector> {
+        self.described.get(&kf).map(|d| &d.nodes)
     }
 
     /// The old keyframes that look like `current`, best first: not covisible with it,
@@ -66,7 +98,7 @@ impl PlaceIndex {
         current: KeyFrameId,
         config: &LoopClosingConfig,
     ) -> Vec<KeyFrameId> {
-        let Some(bow) = self.bows.get(&current) else {
+        let Some(bow) = self.described.get(&current).map(|d| &d.bow) else {
             return Vec::new();
         };
         let covisible: Vec<KeyFrameId> = map
@@ -77,8 +109,8 @@ impl PlaceIndex {
         let min_score = map
             .connected(current)
             .iter()
-            .filter_map(|(k, _)| self.bows.get(k))
-            .map(|other| score(bow, other))
+            .filter_map(|(k, _)| self.described.get(k))
+            .map(|other| score(bow, &other.bow))
             .fold(1.0, f64::min);
         let too_recent = |k: KeyFrameId| k.0 + config.min_keyframe_gap > current.0;
         self.database
@@ -91,23 +123,12 @@ impl PlaceIndex {
             .collect()
     }
 
-    /// The vocabulary the keyframes are described with.
-    pub fn vocabulary(&self) -> &Vocabulary {
-        &self.vocabulary
-    }
-
-    /// The keyframes that look most like a frame of `descriptors` (not a keyframe of the
-    /// map: a lost frame to relocalise), best first, at most `max_candidates`, each with
-    /// at least `min_score`. Call after [`Self::sync`].
-    pub fn query(
-        &self,
-        descriptors: &[gfs_core::descriptor::Descriptor],
-        max_candidates: usize,
-        min_score: f64,
-    ) -> Vec<KeyFrameId> {
-        let bow = self.vocabulary.transform(descriptors);
+    /// The keyframes that look most like a frame of bag of words `bow` (not a keyframe
+    /// of the map: a lost frame to relocalise, [`Self::describe`]), best first, at most
+    /// `max_candidates`, each with at least `min_score`. Call after [`Self::sync`].
+    pub fn query(&self, bow: &BowVector, max_candidates: usize, min_score: f64) -> Vec<KeyFrameId> {
         self.database
-            .query(&bow, max_candidates, |_| false)
+            .query(bow, max_candidates, |_| false)
             .into_iter()
             .filter(|(_, s)| *s >= min_score)
             .map(|(k, _)| k)

@@ -387,12 +387,24 @@ impl Map {
         all
     }
 
-    /// The map points of `kf` and of its [`Self::connected`] keyframes, the place it
-    /// sees, sorted by id.
-    pub fn place_points(&self, kf: KeyFrameId) -> Vec<MapPointId> {
-        let mut ids: Vec<MapPointId> = std::iter::once(kf)
+    /// `kf` and its [`Self::connected`] keyframes: the place it sees.
+    pub fn place_keyframes(&self, kf: KeyFrameId) -> Vec<KeyFrameId> {
+        std::iter::once(kf)
             .chain(self.connected(kf).into_iter().map(|(k, _)| k))
-            .filter_map(|k| self.keyframes.get(&k))
+            .collect()
+    }
+
+    /// The map points of the [`Self::place_keyframes`] of `kf`, the place it sees,
+    /// sorted by id.
+    pub fn place_points(&self, kf: KeyFrameId) -> Vec<MapPointId> {
+        self.points_seen_by(&self.place_keyframes(kf))
+    }
+
+    /// The map points `keyframes` observe, sorted by id.
+    pub fn points_seen_by(&self, keyframes: &[KeyFrameId]) -> Vec<MapPointId> {
+        let mut ids: Vec<MapPointId> = keyframes
+            .iter()
+            .filter_map(|k| self.keyframes.get(k))
             .flat_map(|k| k.point_ids.iter().flatten().copied())
             .collect();
         ids.sort_unstable();
