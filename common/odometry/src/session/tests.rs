@@ -325,9 +325,22 @@ fn a_lost_frame_is_found_through_the_mapping_half_when_the_trackers_map_lacks_it
         (pose_20.id, pose_20.status),
         (gfs_core::ids::FrameId(20), TrackingStatus::Relocalised)
     );
-    let error = pose_20.world_from_camera * moved;
+    // Found: the map pose is the truth; the jump from the prediction went into
+    // map -> odom, and the published odometry is the prediction it had (REP 105).
+    let error = (restored.map_from_odom() * pose_20.world_from_camera) * moved;
     assert!(error.translation.vector.norm() < 0.01, "{error}");
     assert!(error.rotation.angle().to_degrees() < 0.5, "{error}");
+    let odom_jump = pose_20.world_from_camera.inverse() * out.pose.world_from_camera;
+    assert!(odom_jump.translation.vector.norm() < 1e-9, "{odom_jump}");
+    let in_map = restored.map_from_odom() * pose_20.world_from_camera;
+    let jumped = (in_map.inverse() * out.pose.world_from_camera)
+        .translation
+        .vector
+        .norm();
+    assert!(
+        jumped > 0.2,
+        "the map pose moved {jumped} m from the prediction"
+    );
     assert_eq!(restored.state(), TrackingState::Tracking);
     assert_eq!(restored.reference(), Some(found.keyframe));
     assert!(restored.take_relocalised().is_none(), "taken once");
@@ -349,7 +362,7 @@ fn a_lost_frame_is_found_through_the_mapping_half_when_the_trackers_map_lacks_it
         .process(scene.features(21, &next))
         .expect("features");
     assert_eq!(out.pose.status, TrackingStatus::Tracked);
-    let error = out.pose.world_from_camera * next;
+    let error = (restored.map_from_odom() * out.pose.world_from_camera) * next;
     assert!(error.translation.vector.norm() < 1e-3, "{error}");
 }
 

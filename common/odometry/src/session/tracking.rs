@@ -115,9 +115,10 @@ pub struct TrackingSession {
     /// exact old pose of the keyframe the answer creates (not checkpointed; a restarted
     /// tracker falls back on the keyframes both maps hold).
     requested_pose: Option<Isometry3<f64>>,
-    /// The features of the frame of the pending relocalisation request (not
-    /// checkpointed; a restarted tracker goes on from the answer's pose alone).
-    relocalising: Option<FrameFeatures>,
+    /// The features of the frame of the pending relocalisation request and its
+    /// `camera_from_world` as published (the prediction), not checkpointed: a restarted
+    /// tracker goes on from the answer's pose alone.
+    relocalising: Option<(FrameFeatures, Isometry3<f64>)>,
     /// The pose of the frame the last map taken in relocalised, until taken.
     relocalised: Option<FramePose>,
 }
@@ -299,7 +300,7 @@ impl TrackingSession {
         let keyframe = wants_keyframe.then(|| self.request_keyframe(&frame, reset));
         let lost = matches!(self.state, TrackingState::Lost { .. });
         let relocalisation = (lost && self.requests.pending().is_none())
-            .then(|| self.request_relocalisation(&frame.features));
+            .then(|| self.request_relocalisation(&frame.features, &frame.camera_from_world));
         let covariance = tracked.then(|| self.tracker.pose_covariance()).flatten();
         self.tracker.finish_frame(frame);
         Ok(TrackOutput {
@@ -310,9 +311,14 @@ impl TrackingSession {
         })
     }
 
-    /// Asks the mapping half to find a lost frame in the whole map.
-    fn request_relocalisation(&mut self, features: &FrameFeatures) -> RelocalisationRequest {
-        self.relocalising = Some(features.clone());
+    /// Asks the mapping half to find a lost frame (at `camera_from_world`, its
+    /// prediction) in the whole map.
+    fn request_relocalisation(
+        &mut self,
+        features: &FrameFeatures,
+        camera_from_world: &Isometry3<f64>,
+    ) -> RelocalisationRequest {
+        self.relocalising = Some((features.clone(), *camera_from_world));
         RelocalisationRequest {
             seq: self.requests.open(features.id),
             features: features.clone(),
@@ -330,17 +336,22 @@ impl TrackingSession {
     /// Goes on from the frame the mapping half found in the whole map: the frame at its
     /// pose becomes the last one (with its matches when its features are still here),
     /// the motion model restarts there, the keyframe it was found against becomes the
-    /// reference.
+    /// reference. The jump from the frame's prediction to that pose goes into
+    /// `map_from_odom` (REP 105: the map pose jumps, the odometry stays continuous).
     fn take_relocalisation(&mut self, found: Relocalised) {
-        let features = self
+        let asked = self
             .relocalising
             .take()
-            .filter(|f| f.id == found.frame)
-            .unwrap_or_else(|| FrameFeatures {
-                id: found.frame,
-                timestamp: found.timestamp,
-                ..FrameFeatures::default()
-            });
+            .filter(|(f, _)| f.id == found.frame);
+        if let Some((_, predicted)) = &asked {
+            let jump = found.camera_from_world.inverse() * predicted;
+            self.map_from_odom = jump * self.map_from_odom;
+        }
+        let features = asked.map(|(f, _)| f).unwrap_or_else(|| FrameFeatures {
+            id: found.frame,
+            timestamp: found.timestamp,
+            ..FrameFeatures::default()
+        });
         let mut frame = TrackedFrame::untracked(features, found.camera_from_world);
         if frame.point_ids.len() == found.point_ids.len() {
             frame.point_ids = found.point_ids;
