@@ -40,7 +40,11 @@ fn run(
         predicted += usize::from(pose.status == TrackingStatus::Predicted);
         relocalised += usize::from(pose.status == TrackingStatus::Relocalised);
         degraded += usize::from(pose.status == TrackingStatus::Degraded);
-        estimate.push(frame.timestamp, pose.world_from_camera);
+        // The map pose: a relocalisation's jump goes into map -> odom.
+        estimate.push(
+            frame.timestamp,
+            vo.odometry.map_from_odom() * pose.world_from_camera,
+        );
         truth.push(frame.timestamp, frame.pose);
     }
     let evaluation = evaluate(&truth, &estimate, EVO_MAX_DIFF_S).unwrap();

@@ -386,6 +386,12 @@ impl TrackingSession {
             TrackingState::Lost { frames } => frames,
         };
         let frame = self.tracker.track(&self.map, features, &mut self.sightings);
+        if frame.status == TrackingStatus::Relocalised {
+            // Found again around the reference keyframe: the jump from the prediction
+            // goes into map -> odom, as for a frame found in the whole map.
+            let jump = frame.camera_from_world.inverse() * self.tracker.prediction();
+            self.map_from_odom = jump * self.map_from_odom;
+        }
         if frame.status.is_tracked() {
             self.state = TrackingState::Tracking;
             return (frame, None);

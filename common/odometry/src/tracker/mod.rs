@@ -99,6 +99,8 @@ pub struct Tracker {
     /// the depth and geometry passes (`motion_prior.rs`), when the motion model has a
     /// velocity.
     prediction: Option<(Isometry3<f64>, f64)>,
+    /// The last frame's prediction.
+    predicted: Isometry3<f64>,
 }
 
 impl Tracker {
@@ -133,6 +135,7 @@ impl Tracker {
             keyframe_depth: None,
             unmeasured: Vec::new(),
             prediction: None,
+            predicted: Isometry3::identity(),
             config,
             camera,
         }
@@ -162,6 +165,11 @@ impl Tracker {
     /// The pose predicted for the next frame, if any frame was seen.
     pub fn predict(&self) -> Option<Isometry3<f64>> {
         self.motion.predict()
+    }
+
+    /// The prediction the last [`Self::track`] started from (`camera_from_world`).
+    pub fn prediction(&self) -> Isometry3<f64> {
+        self.predicted
     }
 
     /// The motion model's velocity (`current_from_previous`), if known.
@@ -240,6 +248,7 @@ impl Tracker {
             rolling_shutter::compensate(&mut features, &self.camera, &rate, self.config.readout_s);
         }
         self.unmeasured.clear();
+        self.predicted = predicted;
         self.prediction = self
             .motion
             .interval_to(features.timestamp)
