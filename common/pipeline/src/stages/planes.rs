@@ -81,6 +81,13 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     while !ctx.stopping() {
         predicted.take(&poses)?;
         let Some(sample) = ctx.next_frame(&frames, &publisher, POLL * 5)? else {
+            // A tracker that subscribed after the last surfaces went out (started late
+            // under load, or restarted) gets them now, not at the next frame: in
+            // lockstep that frame waits for its pose, so it would wait for the
+            // deadline and track without them.
+            if let Some(surfaces) = &surfaces_publisher {
+                surfaces.update_connections()?;
+            }
             continue;
         };
         let mut header = *sample.user_header();
