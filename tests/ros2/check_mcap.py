@@ -1,6 +1,8 @@
 """Reads a `gfsvo run --mcap` recording with PyPI mcap-ros2-support and checks every
-/odom against trajectory.txt: the base pose in odom turned back into the camera pose
-with the default camera-in-base extrinsic (REP 103 optical frame)."""
+/odom against odometry.txt (the poses as published; trajectory.txt, the map poses,
+differs once a loop correction or a relocalisation went into map -> odom): the base
+pose in odom turned back into the camera pose with the default camera-in-base
+extrinsic (REP 103 optical frame)."""
 import sys
 
 import numpy as np
@@ -42,7 +44,7 @@ for m in read_ros2_messages(mcap_path):
     worst = max(worst, float(np.abs(camera - want).max()))
     assert o.header.frame_id == "odom" and o.child_frame_id == "base_link"
     odoms += 1
-print(f"mcap: {odoms} /odom, {statuses} status messages; trajectory.txt has {len(rows)} poses; "
+print(f"mcap: {odoms} /odom, {statuses} status messages; odometry.txt has {len(rows)} poses; "
       f"largest difference {worst:.2e}")
 assert odoms == len(rows) == statuses, "one /odom per pose"
-assert worst < 1e-6, "every /odom equals trajectory.txt"
+assert worst < 1e-6, "every /odom equals odometry.txt"
