@@ -344,8 +344,7 @@ impl TrackingSession {
             .take()
             .filter(|(f, _)| f.id == found.frame);
         if let Some((_, predicted)) = &asked {
-            let jump = found.camera_from_world.inverse() * predicted;
-            self.map_from_odom = jump * self.map_from_odom;
+            self.take_in_jump(&found.camera_from_world, predicted);
         }
         let features = asked.map(|(f, _)| f).unwrap_or_else(|| FrameFeatures {
             id: found.frame,
@@ -387,10 +386,10 @@ impl TrackingSession {
         };
         let frame = self.tracker.track(&self.map, features, &mut self.sightings);
         if frame.status == TrackingStatus::Relocalised {
-            // Found again around the reference keyframe: the jump from the prediction
-            // goes into map -> odom, as for a frame found in the whole map.
-            let jump = frame.camera_from_world.inverse() * self.tracker.prediction();
-            self.map_from_odom = jump * self.map_from_odom;
+            // Found again around the reference keyframe, as a frame found in the whole
+            // map is.
+            let predicted = self.tracker.prediction();
+            self.take_in_jump(&frame.camera_from_world, &predicted);
         }
         if frame.status.is_tracked() {
             self.state = TrackingState::Tracking;
@@ -448,6 +447,13 @@ impl TrackingSession {
             _ => self.relocalising = None,
         }
         true
+    }
+
+    /// A relocalised frame was found at `found` where it was predicted at `predicted`
+    /// (both `camera_from_world`): the jump goes into `map_from_odom`, so the map pose
+    /// jumps and the published odometry stays on the prediction (REP 105).
+    fn take_in_jump(&mut self, found: &Isometry3<f64>, predicted: &Isometry3<f64>) {
+        self.map_from_odom = found.inverse() * predicted * self.map_from_odom;
     }
 
     /// A map whose loop corrections differ from the held one's moved its keyframes: the

@@ -107,8 +107,8 @@ impl Tracker {
 
     /// The frame's prediction as a prior, for a frame tracked on `tracked_on`.
     fn motion_prior(&self, tracked_on: PriorFor) -> Option<PosePrior> {
-        let (predicted, dt) = self.prediction?;
-        motion_prior(&self.config.depth, &predicted, dt, tracked_on)
+        let dt = self.predicted_over_s?;
+        motion_prior(&self.config.depth, &self.predicted, dt, tracked_on)
     }
 
     /// Keeps the depth of the reference keyframe: when the reference changed to the

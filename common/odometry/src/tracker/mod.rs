@@ -95,12 +95,12 @@ pub struct Tracker {
     /// The directions a frame tracked on geometry alone left free (above `[tracking.
     /// depth] weak_sigma_m`): the motion model does not learn its motion along them.
     unmeasured: Vec<nalgebra::Vector6<f64>>,
-    /// The frame's prediction and the seconds since the last frame, for the prior of
-    /// the depth and geometry passes (`motion_prior.rs`), when the motion model has a
-    /// velocity.
-    prediction: Option<(Isometry3<f64>, f64)>,
-    /// The last frame's prediction.
+    /// The prediction the last frame started from.
     predicted: Isometry3<f64>,
+    /// Seconds from the frame before to the last frame, when the motion model had a
+    /// velocity to predict over: the prior of the depth and geometry passes
+    /// (`motion_prior.rs`) needs both.
+    predicted_over_s: Option<f64>,
 }
 
 impl Tracker {
@@ -134,8 +134,8 @@ impl Tracker {
             plane_pairs: Vec::new(),
             keyframe_depth: None,
             unmeasured: Vec::new(),
-            prediction: None,
             predicted: Isometry3::identity(),
+            predicted_over_s: None,
             config,
             camera,
         }
@@ -249,10 +249,7 @@ impl Tracker {
         }
         self.unmeasured.clear();
         self.predicted = predicted;
-        self.prediction = self
-            .motion
-            .interval_to(features.timestamp)
-            .map(|dt| (predicted, dt));
+        self.predicted_over_s = self.motion.interval_to(features.timestamp);
         let mut frame = TrackedFrame::untracked(features, predicted);
         self.points.index(&frame.features);
         self.lines.index(&frame.features);
