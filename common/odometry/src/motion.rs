@@ -1,7 +1,7 @@
 //! Constant-velocity motion model: the pose prediction every tracking step starts from.
 
 use gfs_core::se3;
-use nalgebra::{Isometry3, Vector3, Vector6};
+use nalgebra::{Isometry3, Vector3};
 
 /// Predicts `camera_from_world` of the next frame from the last two.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
@@ -83,25 +83,6 @@ impl MotionModel {
         Some(predicted)
     }
 
-    /// Removes from the velocity its motion along `directions` (unit tangent vectors
-    /// `[rho; phi L]`, rotations scaled by `lever_arm_m`, orthogonal to each other, as
-    /// [`gfs_optim::analyse_constraint`] gives them): the last step did not measure it.
-    /// A pose the data leave free along a direction stays where the prediction put it,
-    /// so a velocity learnt from it would feed its own error back, frame after frame.
-    pub fn forget_motion_along(&mut self, directions: &[Vector6<f64>], lever_arm_m: f64) {
-        // Nothing to forget leaves the velocity bit for bit (no log / exp round trip).
-        let (Some(velocity), false) = (&self.velocity, directions.is_empty()) else {
-            return;
-        };
-        let mut kept = se3::exp(&without_motion_along(
-            &se3::log(velocity),
-            directions,
-            lever_arm_m,
-        ));
-        kept.rotation.renormalize();
-        self.velocity = Some(kept);
-    }
-
     /// Seconds from the last frame to `timestamp`, when a velocity is known and that
     /// interval is one a prediction is made over (not equal or reversed timestamps, not
     /// a gap of over a second).
@@ -130,23 +111,6 @@ impl MotionModel {
         self.velocity = None;
         self.velocity_interval_s = None;
     }
-}
-
-/// `xi` (a tangent vector `[rho; phi]`) without its components along `directions`
-/// (unit vectors `[rho; phi L]`, orthogonal to each other, rotations scaled by the lever
-/// arm `lever_arm_m`, as [`gfs_optim::analyse_constraint`] gives them).
-pub fn without_motion_along(
-    xi: &Vector6<f64>,
-    directions: &[Vector6<f64>],
-    lever_arm_m: f64,
-) -> Vector6<f64> {
-    let l = lever_arm_m.max(f64::MIN_POSITIVE);
-    let scale = Vector6::new(1.0, 1.0, 1.0, l, l, l);
-    let mut scaled = xi.component_mul(&scale);
-    for u in directions {
-        scaled -= u * u.dot(&scaled);
-    }
-    scaled.component_div(&scale)
 }
 
 #[cfg(test)]
@@ -213,25 +177,6 @@ mod tests {
             let p = m.predict_at(t).expect("velocity");
             assert!((p.translation.vector - fallback.translation.vector).norm() < 1e-15);
         }
-    }
-
-    #[test]
-    fn motion_along_an_unmeasured_direction_is_forgotten() {
-        let step = gfs_core::se3::exp(&Vector6::new(0.02, 0.01, -0.03, 0.01, 0.0, 0.005));
-        let mut m = MotionModel::default();
-        m.update(&Isometry3::identity(), 0.0, true);
-        m.update(&step, 0.033, true);
-        // x free, and a rotation about z mixed with y (lever arm 2 m).
-        let mixed = Vector6::new(0.0, 0.6, 0.0, 0.0, 0.0, 0.8);
-        m.forget_motion_along(&[Vector6::x(), mixed], 2.0);
-        let left = gfs_core::se3::log(m.velocity().expect("velocity"));
-        assert!(left[0].abs() < 1e-12, "{left}");
-        assert!(
-            (0.6 * left[1] + 0.8 * 2.0 * left[5]).abs() < 1e-12,
-            "{left}"
-        );
-        // What was measured stays.
-        assert!((left[2] + 0.03).abs() < 1e-12 && (left[3] - 0.01).abs() < 1e-12);
     }
 
     #[test]

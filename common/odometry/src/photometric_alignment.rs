@@ -86,6 +86,7 @@ impl PhotometricAssociator {
                 self.observations.push(PhotometricObservation {
                     point_in_world: (world_from_reference * in_reference).coords,
                     intensity,
+                    reference_gradient: gradient,
                     inv_sigma2: 1.0
                         / (intensity_sigma2 + position_sigma2 * gradient.norm_squared()),
                 });

@@ -145,13 +145,10 @@ impl Tracker {
         }
     }
 
-    /// The directions the last optimisation's information, less what the depth pairs'
-    /// normal noise lends it, leaves with a standard deviation above `[tracking.depth]
-    /// max_sigma_m`, for a frame at `camera_from_world`.
-    pub(super) fn weak_directions(
-        &self,
-        camera_from_world: &Isometry3<f64>,
-    ) -> Vec<nalgebra::Vector6<f64>> {
+    /// True when the last optimisation's information, less what the depth pairs' normal
+    /// noise lends it, leaves a direction with a standard deviation above `[tracking.
+    /// depth] max_sigma_m`, for a frame at `camera_from_world`.
+    pub(super) fn leaves_weak_directions(&self, camera_from_world: &Isometry3<f64>) -> bool {
         let depth = &self.config.depth;
         let noise = if self.depth_pairs > 0 {
             self.depth_associator
@@ -159,12 +156,12 @@ impl Tracker {
         } else {
             nalgebra::Matrix6::zeros()
         };
-        analyse_constraint(
+        !analyse_constraint(
             &(self.solver.information() - noise),
             depth.lever_arm_m,
             depth.max_sigma_m,
         )
-        .unconstrained
+        .is_determined()
     }
 
     /// `Degraded` when the last optimisation's information leaves a pose direction

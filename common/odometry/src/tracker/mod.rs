@@ -23,7 +23,7 @@ use crate::map::Map;
 use crate::matching::{
     LineProjectionMatcher, PointProjectionMatcher, ProjectionCandidate, ScalePyramid,
 };
-use crate::motion::{MotionModel, without_motion_along};
+use crate::motion::MotionModel;
 use crate::plane_association::PlaneAssociator;
 use crate::pose_solver::{Inliers, PoseSolver};
 use crate::ransac::{Correspondence, RigidRansac};
@@ -92,9 +92,6 @@ pub struct Tracker {
     plane_pairs: Vec<(usize, MapPlaneId)>,
     /// The reference keyframe's depth (`[tracking.depth] keyframe_reference`).
     keyframe_depth: Option<(KeyFrameId, crate::depth_grid::DepthGrid)>,
-    /// The directions a frame tracked on geometry alone left free (above `[tracking.
-    /// depth] weak_sigma_m`): the motion model does not learn its motion along them.
-    unmeasured: Vec<nalgebra::Vector6<f64>>,
     /// The prediction the last frame started from.
     predicted: Isometry3<f64>,
     /// Seconds from the frame before to the last frame, when the motion model had a
@@ -133,7 +130,6 @@ impl Tracker {
             plane_associator: PlaneAssociator::default(),
             plane_pairs: Vec::new(),
             keyframe_depth: None,
-            unmeasured: Vec::new(),
             predicted: Isometry3::identity(),
             predicted_over_s: None,
             config,
@@ -187,10 +183,6 @@ impl Tracker {
         if frame.status == TrackingStatus::Relocalised {
             self.motion.reset_velocity();
         }
-        if frame.status.is_tracked() {
-            self.motion
-                .forget_motion_along(&self.unmeasured, self.config.depth.lever_arm_m);
-        }
         self.last = Some(frame);
     }
 
@@ -200,7 +192,6 @@ impl Tracker {
         self.motion = MotionModel::default();
         self.motion
             .update(&frame.camera_from_world, frame.features.timestamp, true);
-        self.unmeasured.clear();
         self.last = Some(frame);
     }
 
@@ -247,7 +238,6 @@ impl Tracker {
         {
             rolling_shutter::compensate(&mut features, &self.camera, &rate, self.config.readout_s);
         }
-        self.unmeasured.clear();
         self.predicted = predicted;
         self.predicted_over_s = self.motion.interval_to(features.timestamp);
         let mut frame = TrackedFrame::untracked(features, predicted);
@@ -299,19 +289,12 @@ impl Tracker {
             self.keep_few_matches(map, &mut frame, &predicted);
         }
         if (use_depth || use_planes) && self.track_on_geometry(map, &mut frame) {
-            self.unmeasured = self.weak_directions(&frame.camera_from_world);
-            // A pose held at the prediction along a direction was not measured there.
-            frame.status = if self.unmeasured.is_empty() {
-                self.status_from_information()
-            } else {
+            // Along a direction the data leave weak, the motion prior placed the pose.
+            frame.status = if self.leaves_weak_directions(&frame.camera_from_world) {
                 TrackingStatus::Degraded
+            } else {
+                self.status_from_information()
             };
-            frame.camera_from_world = hold_to_prediction(
-                &frame.camera_from_world,
-                &predicted,
-                &self.unmeasured,
-                self.config.depth.lever_arm_m,
-            );
             return frame;
         }
         frame.restart(&predicted);
@@ -358,26 +341,6 @@ impl Tracker {
         );
         frame.inliers.total()
     }
-}
-
-/// `pose` moved back onto `predicted` along `directions` (see [`without_motion_along`]):
-/// along a direction the data leave free, the optimiser's step follows the noise of the
-/// depth nodes' normals, which lend a wall and the floor a few millimetres of
-/// information along their edge; the prediction is the better guess there.
-fn hold_to_prediction(
-    pose: &Isometry3<f64>,
-    predicted: &Isometry3<f64>,
-    directions: &[nalgebra::Vector6<f64>],
-    lever_arm_m: f64,
-) -> Isometry3<f64> {
-    if directions.is_empty() {
-        return *pose;
-    }
-    let step = gfs_core::se3::log(&(pose * predicted.inverse()));
-    let mut held =
-        gfs_core::se3::exp(&without_motion_along(&step, directions, lever_arm_m)) * predicted;
-    held.rotation.renormalize();
-    held
 }
 
 #[cfg(test)]

@@ -29,7 +29,8 @@ impl Normal {
         }
     }
 
-    /// Adds a residual with information `info`, robustified when `huber` is given.
+    /// Adds a residual with information `info`, robustified when `huber` is given;
+    /// returns the weight it entered with (`info` times the kernel's weight).
     ///
     /// Always inlined: it is the inner loop of every block's linearisation, and the
     /// compiler leaves it a call from the point block, which made the optimiser
@@ -41,13 +42,21 @@ impl Normal {
         e: &SVector<f64, R>,
         info: f64,
         huber: Option<&Huber>,
-    ) {
+    ) -> f64 {
         let s = info * e.norm_squared();
         let (cost, w) = huber.map_or((s, 1.0), |h| (h.cost(s), h.weight(s)));
         let jt_w = j.transpose() * (w * info);
         self.h += jt_w * j;
         self.g += jt_w * e;
         self.cost += cost;
+        w * info
+    }
+
+    /// Adds `other`'s sums.
+    pub(super) fn add_normal(&mut self, other: &Normal) {
+        self.h += other.h;
+        self.g += other.g;
+        self.cost += other.cost;
     }
 }
 

@@ -4,7 +4,7 @@
 use crate::residuals::{IntensityGrid, PlaneToPlane, PosePrior};
 #[cfg(doc)]
 use crate::residuals::{LineReprojection, Photometric, PointToPlane, StereoPointReprojection};
-use nalgebra::{Isometry3, SMatrix, Vector2, Vector3, Vector4};
+use nalgebra::{Isometry3, RowVector2, SMatrix, Vector2, Vector3, Vector4};
 
 #[cfg(doc)]
 use super::PoseResult;
@@ -58,6 +58,9 @@ pub struct PhotometricObservation {
     pub point_in_world: Vector3<f64>,
     /// Its intensity in the reference, gray levels.
     pub intensity: f64,
+    /// The reference's intensity gradient there, gray levels per pixel: beside the
+    /// frame's, it measures how noisy the gradients are (see [`PoseResult::information`]).
+    pub reference_gradient: RowVector2<f64>,
     /// Information of the intensity difference, 1/gray level^2.
     pub inv_sigma2: f64,
 }

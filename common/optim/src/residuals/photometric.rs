@@ -10,7 +10,7 @@
 
 use super::projection::{point_pose_jacobian, project, projection_jacobian};
 use gfs_core::camera::PinholeCamera;
-use nalgebra::{Isometry3, Matrix1x6, Point3, RowVector2, Vector3};
+use nalgebra::{Isometry3, Matrix1x6, Matrix2x6, Point3, RowVector2, Vector3};
 
 /// A frame's intensities as the means of square pixel cells, row-major; cell `(i, j)`
 /// covers pixels `[i s, (i + 1) s) x [j s, (j + 1) s)` and sits at their centre.
@@ -84,8 +84,12 @@ pub struct Photometric {
 pub struct PhotometricLinearization {
     /// Frame intensity minus reference intensity, gray levels.
     pub error: f64,
-    /// d(error)/d(delta) for the left pose perturbation, 1x6.
+    /// d(error)/d(delta) for the left pose perturbation, 1x6: `gradient * d_pixel`.
     pub d_pose: Matrix1x6<f64>,
+    /// The frame's intensity gradient where the point projects, gray levels per pixel.
+    pub gradient: RowVector2<f64>,
+    /// d(pixel)/d(delta) of the point, 2x6.
+    pub d_pixel: Matrix2x6<f64>,
 }
 
 impl Photometric {
@@ -116,9 +120,12 @@ impl Photometric {
         let p_c = (camera_from_world * Point3::from(*point_in_world)).coords;
         let uv = project(camera, &p_c)?;
         let (value, gradient) = image.intensity_and_gradient(uv.x, uv.y)?;
+        let d_pixel = projection_jacobian(camera, &p_c) * point_pose_jacobian(&p_c);
         Some(PhotometricLinearization {
             error: value - self.intensity,
-            d_pose: gradient * projection_jacobian(camera, &p_c) * point_pose_jacobian(&p_c),
+            d_pose: gradient * d_pixel,
+            gradient,
+            d_pixel,
         })
     }
 }

@@ -9,7 +9,7 @@ use crate::pose::{PhotometricObservation, PhotometricTerm, PoseOptimizerConfig};
 use crate::residuals::Photometric;
 use crate::robust::Huber;
 use gfs_core::camera::PinholeCamera;
-use nalgebra::{Isometry3, Point3, Vector1};
+use nalgebra::{Isometry3, Matrix6, Point3, Vector1};
 
 /// The photometric term, when any, with its kernel and threshold.
 pub(crate) struct PhotometricBlock<'a> {
@@ -107,19 +107,38 @@ impl Block for PhotometricBlock<'_> {
             return;
         };
         let gain = self.gain(term, pose, inliers);
+        let mut own = Normal::zeros();
+        // sum w J_px^T J_px, and the weighted squared differences of the two gradients.
+        let mut pixel_information = Matrix6::zeros();
+        let (mut difference2, mut weight) = (0.0, 0.0);
         for obs in flagged(term.observations, inliers) {
             let r = Photometric {
                 intensity: gain * obs.intensity,
             };
             if let Some(l) = r.linearize(self.camera, &term.image, pose, &obs.point_in_world) {
-                normal.add(
+                let w = own.add(
                     &l.d_pose,
                     &Vector1::new(l.error),
                     obs.inv_sigma2,
                     robust.then_some(&self.huber),
                 );
+                pixel_information += l.d_pixel.transpose() * l.d_pixel * w;
+                difference2 +=
+                    obs.inv_sigma2 * (l.gradient - obs.reference_gradient * gain).norm_squared();
+                weight += obs.inv_sigma2;
             }
         }
+        // Each gradient component carries noise of variance sigma_g^2, which lends the
+        // sums `sigma_g^2 sum w J_px^T J_px` of information the surface does not give (a
+        // noisy gradient looks like texture, but the next frame's noise is another). The
+        // frame's and the reference's gradients see the same surface with independent
+        // noise: `E |g_c - gain g_r|^2 = 4 sigma_g^2`.
+        if weight > 0.0 {
+            own.h = without_negative_directions(
+                &(own.h - pixel_information * (difference2 / (4.0 * weight))),
+            );
+        }
+        normal.add_normal(&own);
     }
 
     fn classify(&self, pose: &Isometry3<f64>, gate: Gate, inliers: &mut [bool]) {
@@ -135,5 +154,138 @@ impl Block for PhotometricBlock<'_> {
                     .residual2(term, pose, obs, gain)
                     .is_some_and(|s| s <= threshold);
         }
+    }
+}
+
+/// The symmetric part of `h` with its negative directions (where taking out the noise's
+/// share left less than none) set to zero.
+fn without_negative_directions(h: &Matrix6<f64>) -> Matrix6<f64> {
+    let eigen = ((h + h.transpose()) * 0.5).symmetric_eigen();
+    let clamped = eigen.eigenvalues.map(|l| l.max(0.0));
+    eigen.eigenvectors * Matrix6::from_diagonal(&clamped) * eigen.eigenvectors.transpose()
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::pose::{
+        DepthObservation, PhotometricObservation, PhotometricTerm, PoseOptimizerConfig, PoseResult,
+        SurfaceObservations, optimize_pose_with_depth,
+    };
+    use crate::residuals::testing::SplitMix64;
+    use crate::residuals::{IntensityGrid, PosePrior};
+    use gfs_core::camera::PinholeCamera;
+    use nalgebra::{Isometry3, Matrix6, Vector3};
+
+    const CELL_PX: u32 = 4;
+    const WALL_M: f64 = 2.0;
+
+    fn camera() -> PinholeCamera {
+        PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480)
+    }
+
+    /// Faint stripes across x on a wall at `WALL_M` seen from the identity, as 4 px cell
+    /// means with independent noise of `sigma` gray levels per cell.
+    fn wall_cells(sigma: f64, seed: u64) -> Vec<f32> {
+        let (camera, mut rng) = (camera(), SplitMix64::new(seed));
+        let (w, h) = (640 / CELL_PX as usize, 480 / CELL_PX as usize);
+        let mut values = Vec::with_capacity(w * h);
+        for j in 0..h {
+            for i in 0..w {
+                let u = (i * CELL_PX as usize) as f64 + 1.5;
+                let x = camera
+                    .back_project(u, (j * CELL_PX as usize) as f64 + 1.5, WALL_M)
+                    .x;
+                // Twelve uniforms less six: near-gaussian, unit variance.
+                let noise = (0..12).map(|_| rng.uniform(0.0, 1.0)).sum::<f64>() - 6.0;
+                values.push(
+                    (128.0 + 2.0 * (x * std::f64::consts::TAU / 0.5).sin() + sigma * noise) as f32,
+                );
+            }
+        }
+        values
+    }
+
+    fn grid(values: &[f32]) -> IntensityGrid<'_> {
+        IntensityGrid {
+            stride_px: CELL_PX,
+            width: 640 / CELL_PX as usize,
+            height: 480 / CELL_PX as usize,
+            values,
+        }
+    }
+
+    /// The information of the pose at the identity from the stripes, noise `sigma`, and
+    /// the wall's depth (which fixes the distance and the two tilts).
+    fn information(sigma: f64) -> Matrix6<f64> {
+        let camera = camera();
+        let (reference_values, frame_values) = (wall_cells(sigma, 1), wall_cells(sigma, 2));
+        let reference = grid(&reference_values);
+        let mut photometric = Vec::new();
+        for j in 2..118 {
+            for i in 2..158 {
+                let (u, v) = ((i * CELL_PX) as f64 + 1.5, (j * CELL_PX) as f64 + 1.5);
+                let (intensity, gradient) = reference.intensity_and_gradient(u, v).expect("inside");
+                photometric.push(PhotometricObservation {
+                    point_in_world: camera.back_project(u, v, WALL_M).coords,
+                    intensity,
+                    reference_gradient: gradient,
+                    // The two cells' noise, as for the noisy wall.
+                    inv_sigma2: 1.0 / (2.0 * 0.3f64.powi(2)),
+                });
+            }
+        }
+        let depth: Vec<_> = (0..100)
+            .map(|k| {
+                let s = Vector3::new(
+                    -1.0 + 0.2 * (k % 10) as f64,
+                    -0.7 + 0.15 * (k / 10) as f64,
+                    WALL_M,
+                );
+                DepthObservation {
+                    point_in_camera: s,
+                    surface_in_world: s,
+                    normal_in_world: Vector3::new(0.0, 0.0, -1.0),
+                    inv_sigma2: 1e6,
+                }
+            })
+            .collect();
+        let mut result = PoseResult::default();
+        optimize_pose_with_depth(
+            &camera,
+            &Isometry3::identity(),
+            &[],
+            &[],
+            SurfaceObservations {
+                depth: &depth,
+                photometric: Some(PhotometricTerm {
+                    image: grid(&frame_values),
+                    observations: &photometric,
+                }),
+                prior: Some(PosePrior::isotropic(Isometry3::identity(), 0.01, 0.01)),
+                ..SurfaceObservations::default()
+            },
+            &PoseOptimizerConfig::default(),
+            &mut result,
+        );
+        result.information
+    }
+
+    #[test]
+    fn the_noise_of_the_gradients_lends_no_information() {
+        // Stripes across x fix the slide along x and nothing along y.
+        let clean = information(0.0);
+        assert!(clean[(1, 1)] < 1e-6 * clean[(0, 0)], "{clean}");
+        // 0.3 gray levels of noise per cell give each gradient component a variance of
+        // 2 0.3^2 / (2 * 4 px)^2 = 0.0028 (gray/px)^2, 0.6 of the stripes' mean square
+        // slope (2 gray levels over 131 px periods): taken as texture, it would add 60 %
+        // to the x information and as much along y.
+        let noisy = information(0.3);
+        let x_ratio = noisy[(0, 0)] / clean[(0, 0)];
+        assert!((0.8..1.2).contains(&x_ratio), "x: {x_ratio}");
+        assert!(
+            noisy[(1, 1)] < 0.1 * clean[(0, 0)],
+            "y: {}",
+            noisy[(1, 1)] / clean[(0, 0)]
+        );
     }
 }
