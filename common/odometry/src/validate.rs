@@ -229,7 +229,8 @@ impl LoopClosingConfig {
         t.within("search_angle_deg", self.search_angle_deg, 0.0, 180.0)?;
         t.at_least("max_candidates", self.max_candidates as u64, 1)?;
         t.at_least("consistent_keyframes", self.consistent_keyframes.into(), 1)?;
-        t.at_least("min_inliers", self.min_inliers as u64, 6)
+        t.at_least("min_inliers", self.min_inliers as u64, 6)?;
+        t.positive("max_sigma_m", self.max_sigma_m)
     }
 }
 

@@ -115,14 +115,25 @@ impl LoopCloser {
         let mut verified = 0;
         let found = consistent.iter().find_map(|&candidate| {
             verified += 1;
-            self.verifier.verify(
+            let found = self.verifier.verify(
                 map,
                 &self.places,
                 kf,
                 candidate,
                 self.config.min_inliers,
                 kf.0,
-            )
+            )?;
+            if found.pose_sigma_m > self.config.max_sigma_m {
+                tracing::debug!(
+                    keyframe = %kf,
+                    %candidate,
+                    inliers = found.inliers,
+                    pose_sigma_m = found.pose_sigma_m,
+                    "loop not closed: its pose is not determined"
+                );
+                return None;
+            }
+            Some(found)
         });
         if verified > 0 {
             tracing::debug!(

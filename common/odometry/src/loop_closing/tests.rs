@@ -263,3 +263,50 @@ fn verification_by_vocabulary_node_accepts_a_true_return_and_rejects_a_look_alik
     assert_eq!(exhaustive, 0);
     assert!(found.is_none(), "{found:?}");
 }
+
+/// The correction of the loop of [`came_back`] on `scene`, with `max_sigma_m`, and the
+/// largest sigma of the verified pose.
+fn close_with_gate(scene: &Scene, max_sigma_m: f64) -> (Option<LoopCorrection>, f64) {
+    let (map, current) = came_back(scene, pose(0.05, 2f64.to_radians()));
+    let mut config = OdometryConfig::default();
+    // One keyframe comes back here: no later keyframes to be consistent with.
+    config.loop_closing.consistent_keyframes = 1;
+    config.loop_closing.max_sigma_m = max_sigma_m;
+    let mut places = PlaceIndex::default();
+    places.sync(&map);
+    let solver = PoseSolver::new(config.tracking.pose.clone(), camera(), scale());
+    let found = Verifier::new(camera(), solver)
+        .verify(&map, &places, current, KeyFrameId(0), 50, 1)
+        .expect("verified");
+    let mut closer = LoopCloser::new(&config, camera(), scale());
+    (closer.after_keyframe(&map, current), found.pose_sigma_m)
+}
+
+#[test]
+fn a_loop_is_closed_only_where_its_matches_determine_its_pose() {
+    // 200 points 1.5-3.5 m away over the whole image: the pose is known to millimetres.
+    let near = Scene::new(200, 0);
+    let (correction, sigma) = close_with_gate(&near, 0.015);
+    println!("near: pose sigma {sigma:.4} m");
+    assert!(sigma < 0.005, "{sigma}");
+    assert!(correction.is_some());
+    // 60 points 7-8 m away in the middle third of the image: a slide and a turn move
+    // them alike, and the pose is loose by centimetres; verified, but not closed.
+    let camera = camera();
+    let mut rng = gfs_core::rng::SplitMix64::new(3);
+    let far = Scene {
+        points: (0..60)
+            .map(|_| {
+                let (u, v) = (rng.range(230.0, 410.0), rng.range(170.0, 310.0));
+                camera.back_project(u, v, rng.range(7.0, 8.0))
+            })
+            .collect(),
+        lines: Vec::new(),
+    };
+    let (correction, sigma) = close_with_gate(&far, 0.015);
+    println!("far: pose sigma {sigma:.4} m");
+    assert!(sigma > 0.015, "{sigma}");
+    assert!(correction.is_none());
+    // The gate is what refused it.
+    assert!(close_with_gate(&far, 1.0).0.is_some());
+}
