@@ -269,7 +269,7 @@ pub struct LoopClosingConfig {
     /// its Sim3 optimisation). Default 50.
     pub min_inliers: usize,
     /// A verified loop whose pose leaves a direction with a standard deviation above
-    /// this (metres, rotations at a 2 m lever arm) is not closed: the map would be moved
+    /// this (metres, rotations at `[tracking.depth] lever_arm_m`) is not closed: the map would be moved
     /// onto a pose its matches do not determine (far points leave a slide and a turn
     /// together). Default 0.015, as a `degraded` frame (the synthetic three laps' loop:
     /// 0.012; a loop of 55 far inliers in a low-texture room, 0.054, which moved the map

@@ -36,6 +36,7 @@ use crate::matching::ScalePyramid;
 use crate::pose_solver::PoseSolver;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::KeyFrameId;
+use gfs_optim::analyse_constraint;
 use serde::{Deserialize, Serialize};
 
 /// A loop that was closed.
@@ -57,6 +58,9 @@ pub struct LoopClosure {
 /// Detects, verifies and closes loops in the map, one keyframe after the other.
 pub struct LoopCloser {
     config: LoopClosingConfig,
+    /// `[tracking.depth] lever_arm_m`: rotations weighed against translations when a
+    /// loop's pose is checked against `max_sigma_m`, as a frame's is.
+    lever_arm_m: f64,
     verifier: Verifier,
     places: PlaceIndex,
     groups: ConsistentGroups,
@@ -69,6 +73,7 @@ impl LoopCloser {
         let solver = PoseSolver::new(config.tracking.pose.clone(), camera, scale);
         Self {
             config: config.loop_closing.clone(),
+            lever_arm_m: config.tracking.depth.lever_arm_m,
             verifier: Verifier::new(camera, solver),
             places: PlaceIndex::default(),
             groups: ConsistentGroups::default(),
@@ -123,12 +128,17 @@ impl LoopCloser {
                 self.config.min_inliers,
                 kf.0,
             )?;
-            if found.pose_sigma_m > self.config.max_sigma_m {
+            let constraint = analyse_constraint(
+                &found.information,
+                self.lever_arm_m,
+                self.config.max_sigma_m,
+            );
+            if !constraint.is_determined() {
                 tracing::debug!(
                     keyframe = %kf,
                     %candidate,
                     inliers = found.inliers,
-                    pose_sigma_m = found.pose_sigma_m,
+                    pose_sigma_m = constraint.worst_sigma_m,
                     "loop not closed: its pose is not determined"
                 );
                 return None;

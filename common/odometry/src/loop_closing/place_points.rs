@@ -19,8 +19,8 @@ const MATCHING: NodeMatchConfig = NodeMatchConfig {
     ratio: 0.75,
 };
 
-/// The points of one place with their descriptors and nodes; its buffers are reused
-/// from one place to the next.
+/// The points of one place with their descriptors and nodes; the point, descriptor and
+/// match buffers are reused from one place to the next.
 #[derive(Debug, Default)]
 pub struct PlacePoints {
     /// The place's map points, sorted by id.

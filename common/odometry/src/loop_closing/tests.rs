@@ -279,7 +279,13 @@ fn close_with_gate(scene: &Scene, max_sigma_m: f64) -> (Option<LoopCorrection>, 
         .verify(&map, &places, current, KeyFrameId(0), 50, 1)
         .expect("verified");
     let mut closer = LoopCloser::new(&config, camera(), scale());
-    (closer.after_keyframe(&map, current), found.pose_sigma_m)
+    let sigma = gfs_optim::analyse_constraint(
+        &found.information,
+        config.tracking.depth.lever_arm_m,
+        f64::INFINITY,
+    )
+    .worst_sigma_m;
+    (closer.after_keyframe(&map, current), sigma)
 }
 
 #[test]

@@ -15,16 +15,11 @@ use crate::pose_solver::PoseSolver;
 use crate::ransac::{Correspondence, RigidRansac};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{KeyFrameId, MapPointId};
-use gfs_optim::analyse_constraint;
 use gfs_place::FeatureVector;
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Matrix6};
 
 /// RANSAC hypotheses tried per candidate.
 const ITERATIONS: usize = 200;
-/// Rotations are compared with translations at this distance in
-/// [`LoopMatch::pose_sigma_m`], metres (a room's depth, as `[tracking.depth]
-/// lever_arm_m`).
-const LEVER_ARM_M: f64 = 2.0;
 
 /// A verified loop: the current keyframe seen from the candidate's side.
 #[derive(Clone, Debug)]
@@ -38,9 +33,9 @@ pub struct LoopMatch {
     pub point_ids: Vec<Option<MapPointId>>,
     /// Number of those matches.
     pub inliers: usize,
-    /// The largest standard deviation of the pose over its directions, from the final
-    /// matches' information (metres, rotations at [`LEVER_ARM_M`]).
-    pub pose_sigma_m: f64,
+    /// The information of the pose from the final matches (`J^T Omega J`, left
+    /// perturbation `[rho; phi]`): which directions they determine.
+    pub information: Matrix6<f64>,
 }
 
 /// Reusable buffers of [`Verifier::verify`].
@@ -154,14 +149,12 @@ impl Verifier {
             &mut point_ids,
             &mut line_ids,
         );
-        let pose_sigma_m =
-            analyse_constraint(self.solver.information(), LEVER_ARM_M, f64::INFINITY).worst_sigma_m;
         (inliers.points >= min_inliers).then_some(LoopMatch {
             candidate,
             camera_from_world,
             point_ids,
             inliers: inliers.points,
-            pose_sigma_m,
+            information: *self.solver.information(),
         })
     }
 }

@@ -289,11 +289,12 @@ impl Tracker {
             self.keep_few_matches(map, &mut frame, &predicted);
         }
         if (use_depth || use_planes) && self.track_on_geometry(map, &mut frame) {
-            // Along a direction the data leave weak, the motion prior placed the pose.
+            // Along a direction the data leave weak, the motion prior placed the pose
+            // (`track_on_geometry` already found the whole information determined).
             frame.status = if self.leaves_weak_directions(&frame.camera_from_world) {
                 TrackingStatus::Degraded
             } else {
-                self.status_from_information()
+                TrackingStatus::Tracked
             };
             return frame;
         }
