@@ -10,7 +10,8 @@
 #   tests/bench/low_texture.sh [points|default|planes|depth|all] ["SEED ..."]
 #
 # Sequences are rendered once into target/low-texture/ (WORK=DIR elsewhere); GFSVO=PATH
-# runs another binary. Not run by CI: about 10 s per sequence on two cores.
+# runs another binary; delete the folder after changing `gfsvo synth` (it renders only
+# what is missing). Not run by CI: about 10 s per sequence on two cores.
 set -euo pipefail
 
 column=${1:-all}

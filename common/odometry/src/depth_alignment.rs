@@ -79,6 +79,16 @@ pub struct DepthAlignmentConfig {
     /// 30 Hz: the features measure the rotation; 800 took TUM fr1_rpy from 11.3 to
     /// 12.5 mm).
     pub motion_prior_feature_angular_accel_deg_s2: f64,
+    /// Pixels of a node's block whose depth noise is independent: on a frame tracked on
+    /// features, a node's depth sigma is the pixel's over the square root of this;
+    /// default 1 (a structured-light sensor's error is correlated across a block: 16
+    /// took TUM fr1 from 11.7 to 12.1 mm and 7-Scenes from 20.3 to 23.1 mm). `gfsvo
+    /// synth` writes 16 for its noise, independent from pixel to pixel (of a block's 64
+    /// pixels; 8 / 32 / 64 left the 24 low-texture sequences at 5.3 / 5.3 / 5.5 mm, 16
+    /// at 5.5 mm with more of them within 4 mm). Frames tracked on their geometry alone
+    /// keep the pixel's sigma: weighed up, the nodes' noisy normals outweigh the
+    /// photometric term along the surfaces (16 there: 11.7 mm).
+    pub independent_pixels_per_node: f64,
 }
 
 impl Default for DepthAlignmentConfig {
@@ -97,6 +107,7 @@ impl Default for DepthAlignmentConfig {
             motion_prior_accel_m_s2: 12.0,
             motion_prior_angular_accel_deg_s2: 800.0,
             motion_prior_feature_angular_accel_deg_s2: 3200.0,
+            independent_pixels_per_node: 1.0,
         }
     }
 }
@@ -129,6 +140,9 @@ pub fn self_information(config: &DepthAlignmentConfig, grid: &DepthGrid) -> Matr
 #[derive(Debug, Default)]
 pub struct DepthAssociator {
     observations: Vec<DepthObservation>,
+    /// Per pair, the sensor's and the association's variance and the squared
+    /// tangential offset of the two nodes (reused).
+    variances: Vec<(f64, f64)>,
     /// Variance of one node normal's tilt along a tangent direction, rad^2, from the
     /// angles between the last pass's paired normals.
     normal_variance: f64,
@@ -136,7 +150,8 @@ pub struct DepthAssociator {
 
 impl DepthAssociator {
     /// The pairs of `current` (at `current_from_world`) with `reference` (at
-    /// `reference_from_world`) within `max_distance_m`, as world-frame observations.
+    /// `reference_from_world`) within `max_distance_m`, as world-frame observations;
+    /// the sensor's share of their variance is scaled by `sensor_variance_scale`.
     #[allow(clippy::too_many_arguments)]
     pub fn associate(
         &mut self,
@@ -147,8 +162,10 @@ impl DepthAssociator {
         reference: &DepthGrid,
         reference_from_world: &Isometry3<f64>,
         max_distance_m: f64,
+        sensor_variance_scale: f64,
     ) -> &[DepthObservation] {
         self.observations.clear();
+        self.variances.clear();
         let mut angle2_sum = 0.0;
         let world_from_reference = reference_from_world.inverse();
         let reference_from_current = reference_from_world * current_from_world.inverse();
@@ -182,20 +199,34 @@ impl DepthAssociator {
                 // The sensor noise of both ends, and the pass's association uncertainty:
                 // a coarse pass pairs points up to its gate apart, and a tight chi-square
                 // test would reject the only pairs of a weakly seen direction.
-                let sigma2 = kinect_depth_sigma(q.z).powi(2)
-                    + kinect_depth_sigma(s.z).powi(2)
+                let sigma2 = sensor_variance_scale
+                    * (kinect_depth_sigma(q.z).powi(2) + kinect_depth_sigma(s.z).powi(2))
                     + (max_distance_m / 3.0).powi(2);
+                let tangential = offset - n * n.dot(&offset);
+                self.variances.push((sigma2, tangential.norm_squared()));
                 self.observations.push(DepthObservation {
                     point_in_camera: q,
                     surface_in_world: (world_from_reference * Point3::from(s)).coords,
                     normal_in_world: world_from_reference.rotation * n,
-                    inv_sigma2: 1.0 / sigma2,
+                    inv_sigma2: 0.0,
                 });
             }
         }
         // Two independent normals, each tilted with two tangent components: the
         // squared angle between them averages four times one component's variance.
         self.normal_variance = angle2_sum / (4.0 * self.observations.len().max(1) as f64);
+        // The reference normal's tilt across the nodes' tangential offset (they are
+        // not the same surface point) is in the distance too. The Kinect model was
+        // fitted to depth deviations from planes, its normals' tilt included; only a
+        // node's averaged sigma leaves it out.
+        let tilt_variance = if sensor_variance_scale < 1.0 {
+            self.normal_variance
+        } else {
+            0.0
+        };
+        for (o, (sigma2, tangential2)) in self.observations.iter_mut().zip(&self.variances) {
+            o.inv_sigma2 = 1.0 / (sigma2 + tangential2 * tilt_variance);
+        }
         &self.observations
     }
 
@@ -281,7 +312,9 @@ mod tests {
         let mut current = reference.clone();
         let pose = Isometry3::identity();
         let mut associator = DepthAssociator::default();
-        associator.associate(&config, &camera, &current, &pose, &reference, &pose, 0.015);
+        associator.associate(
+            &config, &camera, &current, &pose, &reference, &pose, 0.015, 1.0,
+        );
         // Exact normals: nothing lent.
         assert_eq!(associator.normal_noise_information(&pose), Matrix6::zeros());
         // Every frame normal tilted by 0.02 rad: a variance of 0.02^2 / 4 per
@@ -289,7 +322,9 @@ mod tests {
         let tilt = [0.02f32.sin(), 0.0, -0.02f32.cos()];
         current.normals.iter_mut().for_each(|n| *n = tilt);
         let pairs = associator
-            .associate(&config, &camera, &current, &pose, &reference, &pose, 0.015)
+            .associate(
+                &config, &camera, &current, &pose, &reference, &pose, 0.015, 1.0,
+            )
             .to_vec();
         let h = associator.normal_noise_information(&pose);
         let w: f64 = pairs.iter().map(|o| o.inv_sigma2).sum();
@@ -298,6 +333,64 @@ mod tests {
         assert!((h[(0, 0)] / expected - 1.0).abs() < 1e-3, "{h}");
         assert!((h[(1, 1)] / expected - 1.0).abs() < 1e-3, "{h}");
         assert!(h[(2, 2)].abs() < 1e-9 * expected && h[(3, 3)] == 0.0, "{h}");
+    }
+
+    #[test]
+    fn an_averaged_node_is_weighed_with_its_normals_tilt_across_the_pair() {
+        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let config = DepthAlignmentConfig::default();
+        let reference = wall(&camera, 2.0);
+        // The frame 2.1 cm to the side (its nodes fall between the reference's), every
+        // normal tilted by 0.2 rad: a variance of 0.2^2 / 4 per tangent component.
+        let mut current = wall(&camera, 2.0);
+        let tilt = [0.2f32.sin(), 0.0, -0.2f32.cos()];
+        current.normals.iter_mut().for_each(|n| *n = tilt);
+        let current_from_world = Isometry3::translation(-0.021, 0.0, 0.0);
+        let gate = 0.015;
+        let sensor = 2.0 * kinect_depth_sigma(2.0).powi(2);
+        let association = (gate / 3.0f64).powi(2);
+        let mut associator = DepthAssociator::default();
+        let mut pair_weights = |scale: f64| {
+            associator
+                .associate(
+                    &config,
+                    &camera,
+                    &current,
+                    &current_from_world,
+                    &reference,
+                    &Isometry3::identity(),
+                    gate,
+                    scale,
+                )
+                .iter()
+                .map(|o| {
+                    let offset = current_from_world.inverse() * Point3::from(o.point_in_camera);
+                    let tangential2 = (offset.coords - o.surface_in_world).xy().norm_squared();
+                    (o.inv_sigma2, tangential2)
+                })
+                .collect::<Vec<_>>()
+        };
+        // The Kinect model already holds the tilt: the pixel's sigma alone.
+        let pixel = pair_weights(1.0);
+        assert!(!pixel.is_empty());
+        for (w, _) in &pixel {
+            assert!((w * (sensor + association) - 1.0).abs() < 1e-9, "{w}");
+        }
+        // Averaged over 16 pixels: the sensor's share shrinks, the tilt across the
+        // tangential offset joins it.
+        let averaged = pair_weights(1.0 / 16.0);
+        assert_eq!(averaged.len(), pixel.len());
+        let mut offset_pairs = 0;
+        for (w, tangential2) in &averaged {
+            let sigma2 = sensor / 16.0 + association + tangential2 * 0.2f64.powi(2) / 4.0;
+            assert!((w * sigma2 - 1.0).abs() < 1e-6, "{w} {tangential2}");
+            if *tangential2 > 1e-5 {
+                offset_pairs += 1;
+                assert!(*w < 1.0 / (sensor / 16.0 + association));
+            }
+        }
+        assert!(offset_pairs > averaged.len() / 2, "{offset_pairs}");
+        assert!(averaged[0].0 > 1.5 * pixel[0].0);
     }
 
     #[test]
@@ -315,8 +408,9 @@ mod tests {
         let mut associator = DepthAssociator::default();
         let mut result = gfs_optim::PoseResult::default();
         for gate in &config.max_distance_m {
-            let pairs =
-                associator.associate(&config, &camera, &current, &pose, &last, &last_pose, *gate);
+            let pairs = associator.associate(
+                &config, &camera, &current, &pose, &last, &last_pose, *gate, 1.0,
+            );
             gfs_optim::optimize_pose_with_depth(
                 &camera,
                 &pose,
@@ -357,6 +451,7 @@ mod tests {
             &reference,
             &Isometry3::identity(),
             0.05,
+            1.0,
         );
         assert_eq!(pairs.len(), 40 * 30);
         for pair in pairs {
@@ -390,6 +485,7 @@ mod tests {
             &reference,
             &Isometry3::identity(),
             0.01,
+            1.0,
         );
         assert!(none.is_empty());
     }

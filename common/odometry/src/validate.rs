@@ -103,6 +103,13 @@ impl TrackingConfig {
         d.positive("lever_arm_m", self.depth.lever_arm_m)?;
         d.positive("max_sigma_m", self.depth.max_sigma_m)?;
         d.require(
+            "independent_pixels_per_node",
+            self.depth.independent_pixels_per_node,
+            self.depth.independent_pixels_per_node.is_finite()
+                && self.depth.independent_pixels_per_node >= 1.0,
+            "finite, >= 1",
+        )?;
+        d.require(
             "weak_sigma_m",
             self.depth.weak_sigma_m,
             self.depth.weak_sigma_m.is_finite() && self.depth.weak_sigma_m >= 0.0,

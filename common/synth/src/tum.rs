@@ -129,7 +129,9 @@ impl SynthSequence {
             "# Written by `gfsvo synth`: scene {}, trajectory {}, {} frames, seed {}.\n\
              # Ideal pinhole (no distortion); ground truth in groundtruth.txt.\n\
              [camera]\nfx = {:?}\nfy = {:?}\ncx = {:?}\ncy = {:?}\nwidth = {}\nheight = {}\n\n\
-             [depth]\nscale = {:?}\nmin_m = 0.1\nmax_m = 10.0\n",
+             [depth]\nscale = {:?}\nmin_m = 0.1\nmax_m = 10.0\n\n\
+             # The rendered depth noise is independent from pixel to pixel.\n\
+             [tracking.depth]\nindependent_pixels_per_node = 16.0\n",
             c.scene,
             c.trajectory,
             c.frames,

@@ -35,7 +35,13 @@ impl Tracker {
             return false;
         }
         self.solver.set_prior(self.motion_prior(PriorFor::Features));
-        let aligned = self.align_depth(map, frame, self.config.depth.photometric_on_features);
+        let sensor_variance_scale = 1.0 / self.config.depth.independent_pixels_per_node;
+        let aligned = self.align_depth(
+            map,
+            frame,
+            self.config.depth.photometric_on_features,
+            sensor_variance_scale,
+        );
         self.solver.set_prior(None);
         aligned
     }
@@ -50,7 +56,7 @@ impl Tracker {
             self.refine_with_planes(map, frame);
         }
         let depth_ok = self.config.use_depth_alignment
-            && self.align_depth(map, frame, true)
+            && self.align_depth(map, frame, true, 1.0)
             && frame.inliers.depth > 0
             && frame.inliers.depth as f64 >= MIN_DEPTH_INLIER_SHARE * self.depth_pairs as f64;
         self.keep_plane_inliers(frame);
@@ -61,8 +67,15 @@ impl Tracker {
     }
 
     /// The coarse-to-fine association and optimisation passes, against the reference
-    /// keyframe's depth or the last frame's ([`depth_reference`]).
-    fn align_depth(&mut self, map: &Map, frame: &mut TrackedFrame, photometric: bool) -> bool {
+    /// keyframe's depth or the last frame's ([`depth_reference`]), the nodes' sensor
+    /// variance scaled by `sensor_variance_scale`.
+    fn align_depth(
+        &mut self,
+        map: &Map,
+        frame: &mut TrackedFrame,
+        photometric: bool,
+        sensor_variance_scale: f64,
+    ) -> bool {
         self.update_keyframe_depth(map);
         for pass in 0..self.config.depth.max_distance_m.len() {
             let Some((reference, reference_from_world)) = depth_reference(
@@ -85,6 +98,7 @@ impl Tracker {
                 reference,
                 &reference_from_world,
                 self.config.depth.max_distance_m[pass],
+                sensor_variance_scale,
             );
             self.depth_pairs = pairs.len();
             self.solver.set_depth(pairs);
