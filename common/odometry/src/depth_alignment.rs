@@ -80,14 +80,16 @@ pub struct DepthAlignmentConfig {
     /// 12.5 mm).
     pub motion_prior_feature_angular_accel_deg_s2: f64,
     /// Pixels of a node's block whose depth noise is independent: on a frame tracked on
-    /// features, a node's depth sigma is the pixel's over the square root of this;
-    /// default 1 (a structured-light sensor's error is correlated across a block: 16
-    /// took TUM fr1 from 11.7 to 12.1 mm and 7-Scenes from 20.3 to 23.1 mm). `gfsvo
-    /// synth` writes 16 for its noise, independent from pixel to pixel (of a block's 64
-    /// pixels; 8 / 32 / 64 left the 24 low-texture sequences at 5.3 / 5.3 / 5.5 mm, 16
-    /// at 5.5 mm with more of them within 4 mm). Frames tracked on their geometry alone
-    /// keep the pixel's sigma: weighed up, the nodes' noisy normals outweigh the
-    /// photometric term along the surfaces (16 there: 11.7 mm).
+    /// features, a node's depth sigma is the pixel's over the square root of this, and
+    /// the reference normal's tilt across the pair joins it; default 1 (a structured-
+    /// light sensor's error is correlated across a block: 16 took 7-Scenes from 20.3 to
+    /// 23.1 mm with all terms, fr1 stayed at 11.3). `gfsvo synth` writes 16 for its
+    /// noise, independent from pixel to pixel: of a block's 64 pixels, holes and edges
+    /// leave fewer (the 24 low-texture sequences with all terms: 4 / 8 / 16 / 32 / 64
+    /// gave 5.72 / 5.45 / 5.78 / 5.58 / 5.62 mm, 13 / 13 / 15 / 13 / 12 within 4 mm).
+    /// Frames tracked on their geometry alone keep the pixel's sigma: weighed up, the
+    /// nodes' noisy normals outweigh the photometric term along the surfaces (16 there:
+    /// 11.7 mm mean).
     pub independent_pixels_per_node: f64,
 }
 
