@@ -330,6 +330,12 @@ mod tests {
             "tracking.depth.max_distance_m"
         );
         let mut c = OdometryConfig::default();
+        c.tracking.depth.independent_pixels_per_node = 0.5;
+        assert_eq!(
+            c.validate().unwrap_err().field,
+            "tracking.depth.independent_pixels_per_node"
+        );
+        let mut c = OdometryConfig::default();
         c.tracking.depth.weak_sigma_m = -1.0;
         assert_eq!(
             c.validate().unwrap_err().field,

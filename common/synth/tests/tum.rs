@@ -94,6 +94,7 @@ fn write_tum_round_trips_images_depth_lists_and_ground_truth() {
     struct Marker {
         camera: CameraConfig,
         depth: toml::Table,
+        tracking: toml::Table,
     }
     let marker: Marker =
         toml::from_str(&fs::read_to_string(dir.join("synthetic.toml")).unwrap()).unwrap();
@@ -103,6 +104,11 @@ fn write_tum_round_trips_images_depth_lists_and_ground_truth() {
         (cam.fx, cam.cx, 64)
     );
     assert_eq!(marker.depth["scale"].as_float(), Some(5000.0));
+    // The rendered depth noise is independent from pixel to pixel.
+    assert_eq!(
+        marker.tracking["depth"]["independent_pixels_per_node"].as_float(),
+        Some(16.0)
+    );
     fs::remove_dir_all(&dir).unwrap();
 }
 
