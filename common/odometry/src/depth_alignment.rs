@@ -12,7 +12,9 @@
 //! the current estimate, projected, and paired with the last frame's node at that pixel
 //! when they are close and their normals agree. The distance is weighed with the
 //! Kinect depth noise of both ends, `sigma_z(z) = 0.0012 + 0.0019 (z - 0.4)^2` m
-//! (Nguyen, Izadi and Lovell, 3DIMPVT 2012).
+//! (Nguyen, Izadi and Lovell, 3DIMPVT 2012), averaged over a node's block where the
+//! sensor's noise is independent from pixel to pixel
+//! ([`DepthAlignmentConfig::independent_pixels_per_node`]).
 
 use crate::depth_grid::DepthGrid;
 use gfs_core::camera::PinholeCamera;
@@ -88,8 +90,8 @@ pub struct DepthAlignmentConfig {
     /// leave fewer (the 24 low-texture sequences with all terms: 4 / 8 / 16 / 32 / 64
     /// gave 5.72 / 5.45 / 5.78 / 5.58 / 5.62 mm, 13 / 13 / 15 / 13 / 12 within 4 mm).
     /// Frames tracked on their geometry alone keep the pixel's sigma: weighed up, the
-    /// nodes' noisy normals outweigh the photometric term along the surfaces (16 there:
-    /// 11.7 mm mean).
+    /// nodes' noisy normals outweigh the photometric term along the surfaces (16 there,
+    /// with an earlier form of the tilt term: 11.7 mm mean).
     pub independent_pixels_per_node: f64,
 }
 
