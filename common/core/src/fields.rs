@@ -49,6 +49,19 @@ impl Table<'_> {
         self.require(name, value, value.is_finite() && value > 0.0, "finite, > 0")
     }
 
+    /// A finite value of at least `min`.
+    ///
+    /// # Errors
+    /// [`FieldError`] otherwise.
+    pub fn not_below(&self, name: &str, value: f64, min: f64) -> Result<(), FieldError> {
+        self.require(
+            name,
+            value,
+            value.is_finite() && value >= min,
+            &format!("finite, >= {min}"),
+        )
+    }
+
     /// A finite value in `[lo, hi]`.
     ///
     /// # Errors

@@ -102,31 +102,17 @@ impl TrackingConfig {
         )?;
         d.positive("lever_arm_m", self.depth.lever_arm_m)?;
         d.positive("max_sigma_m", self.depth.max_sigma_m)?;
-        d.require(
+        d.not_below(
             "independent_pixels_per_node",
             self.depth.independent_pixels_per_node,
-            self.depth.independent_pixels_per_node.is_finite()
-                && self.depth.independent_pixels_per_node >= 1.0,
-            "finite, >= 1",
+            1.0,
         )?;
-        d.require(
-            "weak_sigma_m",
-            self.depth.weak_sigma_m,
-            self.depth.weak_sigma_m.is_finite() && self.depth.weak_sigma_m >= 0.0,
-            "finite, >= 0",
-        )?;
-        d.require(
-            "photometric_sigma",
-            self.depth.photometric_sigma,
-            self.depth.photometric_sigma.is_finite() && self.depth.photometric_sigma >= 0.0,
-            "finite, >= 0",
-        )?;
-        d.require(
+        d.not_below("weak_sigma_m", self.depth.weak_sigma_m, 0.0)?;
+        d.not_below("photometric_sigma", self.depth.photometric_sigma, 0.0)?;
+        d.not_below(
             "photometric_position_sigma_px",
             self.depth.photometric_position_sigma_px,
-            self.depth.photometric_position_sigma_px.is_finite()
-                && self.depth.photometric_position_sigma_px >= 0.0,
-            "finite, >= 0",
+            0.0,
         )?;
         for (field, value) in [
             (
@@ -142,12 +128,7 @@ impl TrackingConfig {
                 self.depth.motion_prior_feature_angular_accel_deg_s2,
             ),
         ] {
-            d.require(
-                field,
-                value,
-                value.is_finite() && value >= 0.0,
-                "finite, >= 0",
-            )?;
+            d.not_below(field, value, 0.0)?;
         }
         let q = Table("tracking.planes");
         q.within(
@@ -273,12 +254,7 @@ fn validate_ba(ba: &BaConfig) -> Result<(), FieldError> {
         ("perpendicular_weight", ba.perpendicular_weight),
         ("manhattan_weight", ba.manhattan_weight),
     ] {
-        t.require(
-            name,
-            value,
-            value.is_finite() && value >= 0.0,
-            "finite, >= 0",
-        )?;
+        t.not_below(name, value, 0.0)?;
     }
     // 0 turns the plane structural terms off; 45 degrees would let any pair pass.
     t.within(

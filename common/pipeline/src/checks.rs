@@ -43,7 +43,7 @@ impl Config {
         let d = Table("depth");
         d.positive("scale", self.depth.scale)?;
         let (min, max) = (f64::from(self.depth.min_m), f64::from(self.depth.max_m));
-        d.require("min_m", min, min.is_finite() && min >= 0.0, "finite, >= 0")?;
+        d.not_below("min_m", min, 0.0)?;
         d.require(
             "max_m",
             max,
@@ -75,12 +75,7 @@ impl Config {
         let t = Table("lines.lines3d");
         t.positive("sample_step", l.sample_step.into())?;
         let (min, max) = (f64::from(l.min_depth), f64::from(l.max_depth));
-        t.require(
-            "min_depth",
-            min,
-            min.is_finite() && min >= 0.0,
-            "finite, >= 0",
-        )?;
+        t.not_below("min_depth", min, 0.0)?;
         t.require(
             "max_depth",
             max,
