@@ -51,7 +51,7 @@ mod tum;
 
 pub use error::SynthError;
 pub use noise::{DEPTH_SCALE, DEPTH_SIGMA_PER_Z2, NoiseConfig};
-pub use render::render_view;
+pub use render::{render_luma_view, render_view};
 pub use rng::SplitMix64;
 pub use scene::{Aabb, EdgeKind, MIN_CLEARANCE, Quad, Scene, SceneEdge, SceneKind, ScenePlane};
 pub use sequence::{SynthConfig, SynthFrame, SynthSequence, luma};

@@ -98,6 +98,50 @@ pub fn render_view(
     depth.as_mut_slice().copy_from_slice(&buffers.depth);
 }
 
+/// Renders the clean luma (BT.601 on a 0-255 scale, neither rounded nor clamped, at an
+/// exposure gain of one) and the exact depth of `scene` seen from `world_from_camera`,
+/// resized to the camera: the unquantised images whose derivatives bound what a view can
+/// tell about its pose (8-bit steps would hide a faint paint's gradient).
+///
+/// ```
+/// use gfs_synth::{luma, render_luma_view, render_view, Scene, SceneKind};
+/// use gfs_core::{camera::PinholeCamera, DepthImage, RgbImage};
+/// use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+/// let scene = Scene::new(SceneKind::LowTexture, 1);
+/// let camera = PinholeCamera::new(40.0, 40.0, 39.5, 29.5, 80, 60);
+/// let look = UnitQuaternion::from_basis_unchecked(&[-Vector3::x(), -Vector3::z(), -Vector3::y()]);
+/// let pose = Isometry3::from_parts(Translation3::new(2.0, 2.5, 1.5), look);
+/// let (mut rgb, mut depth) = (RgbImage::new(0, 0), DepthImage::new(0, 0));
+/// render_view(&scene, &camera, &pose, &mut rgb, &mut depth);
+/// let (mut fine, mut exact) = (Vec::new(), Vec::new());
+/// render_luma_view(&scene, &camera, &pose, &mut fine, &mut exact);
+/// assert_eq!(exact.as_slice(), depth.as_slice());
+/// // The 8-bit image is the same luma rounded, channel by channel and again as gray
+/// // (where no channel saturates).
+/// for (f, c) in fine.iter().zip(rgb.as_slice()).filter(|(_, c)| c.iter().all(|&v| v < 255)) {
+///     assert!((f - f32::from(luma(*c))).abs() <= 1.0, "{f} against {c:?}");
+/// }
+/// ```
+pub fn render_luma_view(
+    scene: &Scene,
+    camera: &PinholeCamera,
+    world_from_camera: &Isometry3<f64>,
+    luma: &mut Vec<f32>,
+    depth: &mut Vec<f32>,
+) {
+    let mut buffers = RenderBuffers::default();
+    render_into(scene, camera, world_from_camera, &mut buffers);
+    luma.clear();
+    luma.extend(
+        buffers
+            .colour
+            .iter()
+            .map(|c| 255.0 * (0.299 * c[0] + 0.587 * c[1] + 0.114 * c[2])),
+    );
+    depth.clear();
+    depth.extend_from_slice(&buffers.depth);
+}
+
 /// A [0, 1] value to 8 bits, rounded and clamped.
 #[inline]
 pub(crate) fn to_u8(v: f32) -> u8 {
