@@ -25,8 +25,8 @@ use gfs_core::camera::PinholeCamera;
 use gfs_core::se3;
 use gfs_optim::analyse_constraint;
 use gfs_synth::{
-    DEPTH_SIGMA_PER_Z2, NoiseConfig, SceneKind, SynthConfig, SynthSequence, TrajectoryKind,
-    render_luma_view,
+    DEPTH_SIGMA_PER_Z2, LUMA_WEIGHTS, NoiseConfig, SceneKind, SynthConfig, SynthSequence,
+    TrajectoryKind, render_luma_view,
 };
 use nalgebra::{Isometry3, Matrix6, SMatrix, SVector, Vector6};
 use std::collections::HashMap;
@@ -113,7 +113,7 @@ fn run(args: &Args) -> Result<(), String> {
     // Luma of three channels with independent noise, each rounded to 8 bits, the luma
     // rounded again.
     let quantisation = 1.0 / 12.0;
-    let weights2 = 0.299f64.powi(2) + 0.587f64.powi(2) + 0.114f64.powi(2);
+    let weights2: f64 = LUMA_WEIGHTS.iter().map(|w| w * w).sum();
     let luma_variance = (noise.image_sigma.powi(2) + quantisation) * weights2 + quantisation;
     println!(
         "frame  depth (mm)  + intensity, gain known (mm)  + intensity, gain free (mm)  status"

@@ -54,7 +54,7 @@ pub use noise::{DEPTH_SCALE, DEPTH_SIGMA_PER_Z2, NoiseConfig};
 pub use render::{render_luma_view, render_view};
 pub use rng::SplitMix64;
 pub use scene::{Aabb, EdgeKind, MIN_CLEARANCE, Quad, Scene, SceneEdge, SceneKind, ScenePlane};
-pub use sequence::{SynthConfig, SynthFrame, SynthSequence, luma};
+pub use sequence::{LUMA_WEIGHTS, SynthConfig, SynthFrame, SynthSequence, luma};
 pub use texture::{Poster, PosterItem, Rgb, Texture};
 pub use trajectory::TrajectoryKind;
 pub use tum::cached_sequence;

@@ -12,6 +12,7 @@
 //! as the camera moves and faces of different orientation differ in brightness.
 
 use crate::scene::Scene;
+use crate::sequence::LUMA_WEIGHTS;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::{DepthImage, RgbImage};
 use nalgebra::{Isometry3, Point3, Vector3};
@@ -132,11 +133,12 @@ pub fn render_luma_view(
     let mut buffers = RenderBuffers::default();
     render_into(scene, camera, world_from_camera, &mut buffers);
     luma.clear();
+    let [r, g, b] = LUMA_WEIGHTS.map(|w| w as f32);
     luma.extend(
         buffers
             .colour
             .iter()
-            .map(|c| 255.0 * (0.299 * c[0] + 0.587 * c[1] + 0.114 * c[2])),
+            .map(|c| 255.0 * (r * c[0] + g * c[1] + b * c[2])),
     );
     depth.clear();
     depth.extend_from_slice(&buffers.depth);

@@ -233,7 +233,10 @@ impl SynthSequence {
     }
 }
 
-/// BT.601 luma, weights (0.299, 0.587, 0.114), rounded: the same integer formula as
+/// BT.601 luma weights of red, green and blue.
+pub const LUMA_WEIGHTS: [f64; 3] = [0.299, 0.587, 0.114];
+
+/// BT.601 luma, weights [`LUMA_WEIGHTS`], rounded: the same integer formula as
 /// `gfs_dataset::gray_bt601`, so the gray of a rendered frame equals the gray of the
 /// same frame read back from its PNG.
 #[inline]
