@@ -93,6 +93,22 @@ pub struct DepthAlignmentConfig {
     /// nodes' noisy normals outweigh the photometric term along the surfaces (16 there,
     /// with an earlier form of the tilt term: 11.7 mm mean).
     pub independent_pixels_per_node: f64,
+    /// A frame tracked on its depth whose pose's worst direction has a standard
+    /// deviation above this (metres at the lever arm), with fewer than
+    /// `renewal_overlap` of its nodes paired with the reference's and its own surfaces
+    /// fixing a pose within this, becomes a keyframe: the depth reference is renewed
+    /// while the frame is still `tracked`, before the view leaves it (a `degraded`
+    /// frame without points makes none, and in a room without keypoints no other rule
+    /// asks for one in time); 0 =
+    /// never; default 0.006 (the 24 synthetic low-texture sequences with all terms
+    /// 5.78 -> 5.38 mm, 15 -> 17 within 4 mm: rotation seeds 4 and 6 7.6 / 11.1 ->
+    /// 3.5 / 3.7 mm with every frame `tracked`; 0.0045: 5.49 mm, 16).
+    pub renewal_sigma_m: f64,
+    /// Share of a frame's depth nodes paired with the reference below which its view
+    /// has moved off the reference (`renewal_sigma_m`); default 0.85 (where most nodes
+    /// pair, a weak direction is the surfaces', which a new reference does not fix:
+    /// with 1.0 the 24 sequences' mean went to 5.56 mm, slow 5 22.3 -> 27.7 mm).
+    pub renewal_overlap: f64,
 }
 
 impl Default for DepthAlignmentConfig {
@@ -112,6 +128,8 @@ impl Default for DepthAlignmentConfig {
             motion_prior_angular_accel_deg_s2: 800.0,
             motion_prior_feature_angular_accel_deg_s2: 3200.0,
             independent_pixels_per_node: 1.0,
+            renewal_sigma_m: 0.006,
+            renewal_overlap: 0.85,
         }
     }
 }
@@ -140,6 +158,28 @@ pub fn self_information(config: &DepthAlignmentConfig, grid: &DepthGrid) -> Matr
     h
 }
 
+/// Whether a frame tracked on its depth (`grid`, its pose's information
+/// `pose_information` from pairs with the reference of which `overlap` is the share of
+/// its nodes) has moved off its depth reference and should renew it
+/// ([`DepthAlignmentConfig::renewal_sigma_m`]): its pose is weakly held, few of its
+/// nodes pair, and its own surfaces would hold a pose (a frame of one wall, whose
+/// slide a new reference would keep, does not qualify).
+pub fn needs_new_reference(
+    config: &DepthAlignmentConfig,
+    pose_information: &Matrix6<f64>,
+    overlap: f64,
+    grid: &DepthGrid,
+) -> bool {
+    let sigma = |information: &Matrix6<f64>| {
+        gfs_optim::analyse_constraint(information, config.lever_arm_m, config.max_sigma_m)
+            .worst_sigma_m
+    };
+    config.renewal_sigma_m > 0.0
+        && overlap < config.renewal_overlap
+        && sigma(pose_information) > config.renewal_sigma_m
+        && sigma(&self_information(config, grid)) < config.renewal_sigma_m
+}
+
 /// Pairs a frame's depth nodes with the reference frame's surface elements.
 #[derive(Debug, Default)]
 pub struct DepthAssociator {
@@ -150,6 +190,8 @@ pub struct DepthAssociator {
     /// Variance of one node normal's tilt along a tangent direction, rad^2, from the
     /// angles between the last pass's paired normals.
     normal_variance: f64,
+    /// The frame's sampled nodes the last pass tried to pair.
+    source_nodes: usize,
 }
 
 impl DepthAssociator {
@@ -170,6 +212,7 @@ impl DepthAssociator {
     ) -> &[DepthObservation] {
         self.observations.clear();
         self.variances.clear();
+        self.source_nodes = 0;
         let mut angle2_sum = 0.0;
         let world_from_reference = reference_from_world.inverse();
         let reference_from_current = reference_from_world * current_from_world.inverse();
@@ -181,6 +224,7 @@ impl DepthAssociator {
                 let Some((q, q_normal)) = current.node(j * width + i) else {
                     continue;
                 };
+                self.source_nodes += 1;
                 let in_reference = reference_from_current * Point3::from(q);
                 let Some(uv) = camera.project(&in_reference) else {
                     continue;
@@ -232,6 +276,14 @@ impl DepthAssociator {
             o.inv_sigma2 = 1.0 / (sigma2 + tangential2 * tilt_variance);
         }
         &self.observations
+    }
+
+    /// The share of the frame's sampled nodes the last pass paired (0 without nodes).
+    pub fn overlap(&self) -> f64 {
+        if self.source_nodes == 0 {
+            return 0.0;
+        }
+        self.observations.len() as f64 / self.source_nodes as f64
     }
 
     /// The information the last pass's pairs seem to give the pose (at
@@ -395,6 +447,97 @@ mod tests {
         }
         assert!(offset_pairs > averaged.len() / 2, "{offset_pairs}");
         assert!(averaged[0].0 > 1.5 * pixel[0].0);
+    }
+
+    /// The pose information of `current` (at `camera_from_world`) from its pairs with
+    /// `reference` (at `reference_from_world`), and the share of its nodes that paired.
+    fn paired_information(
+        camera: &PinholeCamera,
+        (current, camera_from_world): (&DepthGrid, &Isometry3<f64>),
+        (reference, reference_from_world): (&DepthGrid, &Isometry3<f64>),
+    ) -> (Matrix6<f64>, f64) {
+        let config = DepthAlignmentConfig::default();
+        let mut associator = DepthAssociator::default();
+        let pairs = associator.associate(
+            &config,
+            camera,
+            current,
+            camera_from_world,
+            reference,
+            reference_from_world,
+            0.015,
+            1.0,
+        );
+        let mut result = gfs_optim::PoseResult::default();
+        gfs_optim::optimize_pose_with_depth(
+            camera,
+            camera_from_world,
+            &[],
+            &[],
+            gfs_optim::SurfaceObservations {
+                depth: pairs,
+                ..gfs_optim::SurfaceObservations::default()
+            },
+            &gfs_optim::PoseOptimizerConfig::default(),
+            &mut result,
+        );
+        (result.information, associator.overlap())
+    }
+
+    #[test]
+    fn a_view_turned_off_its_reference_onto_a_corner_of_its_own_needs_a_new_one() {
+        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let config = DepthAlignmentConfig::default();
+        // A room's floor, right wall, far wall and (out of the reference's view) left
+        // wall; the camera turned 30 degrees to the left sees the floor, the far wall
+        // and the left wall, and pairs only on the floor and the far wall: nothing of
+        // the reference holds it along x.
+        let room = [
+            ([0.0, 1.0, 0.0], 1.0),
+            ([1.0, 0.0, 0.0], 1.2),
+            ([1.0, 0.0, 0.0], -3.0),
+            ([0.0, 0.0, 1.0], 4.0),
+        ];
+        let turned = Isometry3::rotation(nalgebra::Vector3::y() * 30f64.to_radians());
+        let identity = Isometry3::identity();
+        let reference = planes_depth(&camera, &identity, &room);
+        let current = planes_depth(&camera, &turned, &room);
+        let (information, overlap) =
+            paired_information(&camera, (&current, &turned), (&reference, &identity));
+        assert!(
+            overlap > 0.3 && overlap < config.renewal_overlap,
+            "{overlap}"
+        );
+        assert!(needs_new_reference(
+            &config,
+            &information,
+            overlap,
+            &current
+        ));
+        // Against a reference seen from where it stands, every node pairs.
+        let (information, overlap) =
+            paired_information(&camera, (&current, &turned), (&current, &turned));
+        assert!(overlap > 0.99, "{overlap}");
+        assert!(!needs_new_reference(
+            &config,
+            &information,
+            overlap,
+            &current
+        ));
+        // Without the side walls the turned view's own surfaces leave x free too: a
+        // keyframe of it would keep whatever slide its pose has.
+        let wall_and_floor = [room[0], room[3]];
+        let reference = planes_depth(&camera, &identity, &wall_and_floor);
+        let current = planes_depth(&camera, &turned, &wall_and_floor);
+        let (information, overlap) =
+            paired_information(&camera, (&current, &turned), (&reference, &identity));
+        assert!(overlap < config.renewal_overlap, "{overlap}");
+        assert!(!needs_new_reference(
+            &config,
+            &information,
+            overlap,
+            &current
+        ));
     }
 
     #[test]

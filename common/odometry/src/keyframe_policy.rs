@@ -1,7 +1,8 @@
 //! When a frame becomes a keyframe (paper "Keyframe Select and Filter", after ORB-SLAM2's
 //! `NeedNewKeyFrame` for RGB-D): when the tracked points **or** the tracked lines fall
 //! well below the reference keyframe's, each against its own threshold, when close
-//! structure is no longer covered by the map, or when the last keyframe is too old.
+//! structure is no longer covered by the map, when the view has moved off the
+//! reference's depth, or when the last keyframe is too old.
 
 use crate::config::KeyframeConfig;
 use crate::map::Map;
@@ -30,6 +31,9 @@ pub struct KeyframeContext<'a> {
     pub frames_since_keyframe: u32,
     /// Depth below which a keypoint is close (`[tracking] close_depth_m`).
     pub close_depth_m: f32,
+    /// The frame, tracked on its depth, has moved off the reference's depth
+    /// ([`crate::Tracker::leaves_depth_reference`]).
+    pub leaves_depth_reference: bool,
 }
 
 /// Decides whether `frame` should become a keyframe.
@@ -43,6 +47,7 @@ pub fn needs_keyframe(
         reference,
         frames_since_keyframe,
         close_depth_m,
+        leaves_depth_reference,
     } = *context;
     if !frame.status.is_tracked() {
         return false;
@@ -97,7 +102,10 @@ pub fn needs_keyframe(
     // Tracked on depth with no map point in view: its close keypoints are the map's
     // only chance to get points here.
     let unmapped = on_depth_alone && frame.inliers.points == 0 && close_untracked > 0;
-    (points_low || lines_low || need_close || timeout || unmapped) && posed
+    // In a room without keypoints no rule above fires before the frame goes
+    // `degraded`, and a `degraded` frame without points makes no keyframe.
+    (points_low || lines_low || need_close || timeout || unmapped || leaves_depth_reference)
+        && posed
 }
 
 #[cfg(test)]
@@ -117,11 +125,22 @@ mod tests {
     }
 
     fn decide(map: &Map, reference: Option<KeyFrameId>, frame: &TrackedFrame, since: u32) -> bool {
+        decide_on_depth(map, reference, frame, since, false)
+    }
+
+    fn decide_on_depth(
+        map: &Map,
+        reference: Option<KeyFrameId>,
+        frame: &TrackedFrame,
+        since: u32,
+        leaves_depth_reference: bool,
+    ) -> bool {
         let context = KeyframeContext {
             map,
             reference,
             frames_since_keyframe: since,
             close_depth_m: 3.1,
+            leaves_depth_reference,
         };
         needs_keyframe(&KeyframeConfig::default(), &context, frame)
     }
@@ -174,6 +193,20 @@ mod tests {
         let mut frame = frame;
         frame.inliers.lines = 0;
         assert!(!decide(&map, Some(kf), &frame, 1));
+    }
+
+    #[test]
+    fn a_view_off_the_reference_depth_asks_for_a_keyframe_while_tracked() {
+        let (map, kf, mut frame) = setup();
+        // The features ask for none (the frame sees what the reference saw): the
+        // depth's judgement alone decides.
+        frame.inliers.depth = 500;
+        assert!(!decide_on_depth(&map, Some(kf), &frame, 1, false));
+        assert!(decide_on_depth(&map, Some(kf), &frame, 1, true));
+        // Without points to anchor it, only a `tracked` frame's pose is worth a keyframe.
+        frame.inliers.points = 0;
+        frame.status = TrackingStatus::Degraded;
+        assert!(!decide_on_depth(&map, Some(kf), &frame, 1, true));
     }
 
     #[test]

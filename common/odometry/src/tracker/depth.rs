@@ -4,6 +4,7 @@
 //! determine.
 
 use super::{TrackedFrame, Tracker};
+use crate::depth_alignment::needs_new_reference;
 use crate::depth_grid::DepthGrid;
 use crate::map::Map;
 use crate::motion_prior::{PriorFor, motion_prior};
@@ -11,7 +12,7 @@ use crate::status::TrackingStatus;
 use gfs_core::ids::KeyFrameId;
 use gfs_optim::analyse_constraint;
 use gfs_optim::residuals::PosePrior;
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Matrix6};
 
 /// Share of the associated depth pairs that must stay inliers for a frame tracked on
 /// depth alone: below it the prediction was too far off for the association.
@@ -164,18 +165,38 @@ impl Tracker {
     /// depth] max_sigma_m`, for a frame at `camera_from_world`.
     pub(super) fn leaves_weak_directions(&self, camera_from_world: &Isometry3<f64>) -> bool {
         let depth = &self.config.depth;
-        let noise = if self.depth_pairs > 0 {
-            self.depth_associator
-                .normal_noise_information(camera_from_world)
-        } else {
-            nalgebra::Matrix6::zeros()
-        };
         !analyse_constraint(
-            &(self.solver.information() - noise),
+            &self.information_less_normal_noise(camera_from_world),
             depth.lever_arm_m,
             depth.max_sigma_m,
         )
         .is_determined()
+    }
+
+    /// Whether `frame`, just tracked and `Tracked` with depth pairs, has moved off its
+    /// depth reference and should become a keyframe ([`needs_new_reference`]).
+    pub fn leaves_depth_reference(&self, frame: &TrackedFrame) -> bool {
+        frame.status == TrackingStatus::Tracked
+            && frame.inliers.depth > 0
+            && needs_new_reference(
+                &self.config.depth,
+                &self.information_less_normal_noise(&frame.camera_from_world),
+                self.depth_associator.overlap(),
+                &frame.features.depth,
+            )
+    }
+
+    /// The last optimisation's information less what the depth pairs' normal noise
+    /// lends it, for a frame at `camera_from_world`.
+    fn information_less_normal_noise(&self, camera_from_world: &Isometry3<f64>) -> Matrix6<f64> {
+        let information = *self.solver.information();
+        if self.depth_pairs == 0 {
+            return information;
+        }
+        information
+            - self
+                .depth_associator
+                .normal_noise_information(camera_from_world)
     }
 
     /// `Degraded` when the last optimisation's information leaves a pose direction
