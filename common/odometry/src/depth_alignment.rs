@@ -99,10 +99,10 @@ pub struct DepthAlignmentConfig {
     /// fixing a pose within this, becomes a keyframe: the depth reference is renewed
     /// while the frame is still `tracked`, before the view leaves it (a `degraded`
     /// frame without points makes none, and in a room without keypoints no other rule
-    /// asks for one in time); 0 =
-    /// never; default 0.006 (the 24 synthetic low-texture sequences with all terms
-    /// 5.78 -> 5.38 mm, 15 -> 17 within 4 mm: rotation seeds 4 and 6 7.6 / 11.1 ->
-    /// 3.5 / 3.7 mm with every frame `tracked`; 0.0045: 5.49 mm, 16).
+    /// asks for one in time); 0 = never; default 0.006 (the 24 synthetic low-texture
+    /// sequences with all terms 5.78 -> 5.38 mm, 15 -> 17 within 4 mm: rotation seeds 4
+    /// and 6 7.6 / 11.1 -> 3.5 / 3.7 mm with every frame `tracked`; a 4.5 mm trigger
+    /// with the own surfaces still at 6 mm: 5.49 mm, 16).
     pub renewal_sigma_m: f64,
     /// Share of a frame's depth nodes paired with the reference below which its view
     /// has moved off the reference (`renewal_sigma_m`); default 0.85 (where most nodes
