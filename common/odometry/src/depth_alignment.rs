@@ -8,10 +8,9 @@
 //! when the keyframe's depth was not kept (a keyframe made of an earlier frame than the
 //! last, as in the realtime pipeline).
 //!
-//! Each sampled node `q` of the frame's [`DepthGrid`] is moved into the reference with
-//! the current estimate, projected, and paired with the reference's surface at that
-//! pixel (its four nodes around it blended, [`DepthGrid::surface_at_pixel`]) when they
-//! are close and their normals agree. The distance is weighed with the
+//! Each sampled node `q` of the frame's [`DepthGrid`] is moved into the last frame with
+//! the current estimate, projected, and paired with the last frame's node at that pixel
+//! when they are close and their normals agree. The distance is weighed with the
 //! Kinect depth noise of both ends, `sigma_z(z) = 0.0012 + 0.0019 (z - 0.4)^2` m
 //! (Nguyen, Izadi and Lovell, 3DIMPVT 2012), averaged over a node's block where the
 //! sensor's noise is independent from pixel to pixel
@@ -230,8 +229,7 @@ impl DepthAssociator {
                 let Some(uv) = camera.project(&in_reference) else {
                     continue;
                 };
-                let Some((s, n)) = reference.surface_at_pixel(uv.x, uv.y, min_cos, max_distance_m)
-                else {
+                let Some((s, n)) = reference.at_pixel(uv.x, uv.y) else {
                     continue;
                 };
                 // Along the normal within the gate; across it, within the gate plus a
@@ -265,9 +263,8 @@ impl DepthAssociator {
         // Two independent normals, each tilted with two tangent components: the
         // squared angle between them averages four times one component's variance.
         self.normal_variance = angle2_sum / (4.0 * self.observations.len().max(1) as f64);
-        // The reference normal's tilt across the nodes' tangential offset (where the
-        // pair is with the node at the pixel, at a step or a crease, they are not the
-        // same surface point) is in the distance too. The Kinect model was
+        // The reference normal's tilt across the nodes' tangential offset (they are
+        // not the same surface point) is in the distance too. The Kinect model was
         // fitted to depth deviations from planes, its normals' tilt included; only a
         // node's averaged sigma leaves it out.
         let tilt_variance = if sensor_variance_scale < 1.0 {
@@ -311,7 +308,6 @@ impl DepthAssociator {
 mod tests {
     use super::*;
     use crate::testing::{CORNER, planes_depth};
-    use nalgebra::Vector3;
 
     /// A grid of the plane z = `depth` seen from the identity, normals towards the
     /// camera.
@@ -399,15 +395,7 @@ mod tests {
     fn an_averaged_node_is_weighed_with_its_normals_tilt_across_the_pair() {
         let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
         let config = DepthAlignmentConfig::default();
-        // Every third column of the wall, the rest holes: no four nodes around a pixel
-        // to blend, each pair is with the node at its pixel.
-        let mut reference = wall(&camera, 2.0);
-        let width = reference.width as usize;
-        for (k, p) in reference.points.iter_mut().enumerate() {
-            if k % width % 3 != 0 {
-                *p = [0.0; 3];
-            }
-        }
+        let reference = wall(&camera, 2.0);
         // The frame 2.1 cm to the side (its nodes fall between the reference's), every
         // normal tilted by 0.2 rad: a variance of 0.2^2 / 4 per tangent component.
         let mut current = wall(&camera, 2.0);
@@ -550,59 +538,6 @@ mod tests {
             overlap,
             &current
         ));
-    }
-
-    #[test]
-    fn noisy_normals_do_not_pull_a_frame_onto_the_reference_nodes() {
-        // The floor and a wall 4 m ahead: their geometry leaves x free, so only the
-        // normals' noise acts along it. Paired with the node at each pixel, that noise
-        // pulled the frame the whole 2 cm back onto the reference's nodes.
-        const WALL_AND_FLOOR: [([f64; 3], f64); 2] =
-            [([0.0, 1.0, 0.0], 1.0), ([0.0, 0.0, 1.0], 4.0)];
-        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
-        let config = DepthAlignmentConfig::default();
-        let reference_pose = Isometry3::identity();
-        let mut reference = planes_depth(&camera, &reference_pose, &WALL_AND_FLOOR);
-        // Each reference normal tilted by up to 0.05 rad (a fixed pseudo-random
-        // pattern), as block normals of a noisy sensor are.
-        for (k, n) in reference.normals.iter_mut().enumerate() {
-            let k = k as f32;
-            let tilt = Vector3::new(0.05 * (12.99 * k).sin(), 0.05 * (78.23 * k).sin(), 0.0);
-            *n = (Vector3::from(*n) + tilt).normalize().into();
-        }
-        // The frame 2 cm to the side (a third of a node on the wall), started there.
-        let truth = Isometry3::translation(-0.02, 0.0, 0.0);
-        let current = planes_depth(&camera, &truth, &WALL_AND_FLOOR);
-        let mut pose = truth;
-        let mut associator = DepthAssociator::default();
-        let mut result = gfs_optim::PoseResult::default();
-        for gate in &config.max_distance_m {
-            let pairs = associator.associate(
-                &config,
-                &camera,
-                &current,
-                &pose,
-                &reference,
-                &reference_pose,
-                *gate,
-                1.0,
-            );
-            gfs_optim::optimize_pose_with_depth(
-                &camera,
-                &pose,
-                &[],
-                &[],
-                gfs_optim::SurfaceObservations {
-                    depth: pairs,
-                    ..gfs_optim::SurfaceObservations::default()
-                },
-                &gfs_optim::PoseOptimizerConfig::default(),
-                &mut result,
-            );
-            pose = result.camera_from_world;
-        }
-        let error = (pose * truth.inverse()).translation.vector;
-        assert!(error.norm() < 0.002, "{error}");
     }
 
     #[test]
