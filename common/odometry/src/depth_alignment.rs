@@ -88,8 +88,7 @@ pub struct DepthAlignmentConfig {
     /// a direction the last frame's data left free (a wall's in-plane motion) its error
     /// would otherwise go into the velocity and on into every next frame (rotation seed 1
     /// drifted 4-7 mm a frame along one wall). Default 0.5 (the 24 synthetic low-texture
-    /// sequences with all terms 5.38 -> 4.88 mm, held out 7.68 -> 6.52 mm; TUM fr1 over
-    /// six start frames 12.12 -> 12.00 mm; 0.3 measured as 0.5 in a probe).
+    /// sequences with all terms 5.38 -> 4.65 mm, held out 7.68 -> 6.47 mm; 0.3: 4.65 mm).
     pub motion_prior_speed_m_s: f64,
     /// Pixels of a node's block whose depth noise is independent: on a frame tracked on
     /// features, a node's depth sigma is the pixel's over the square root of this, and
