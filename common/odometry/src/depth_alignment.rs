@@ -81,15 +81,6 @@ pub struct DepthAlignmentConfig {
     /// 30 Hz: the features measure the rotation; 800 took TUM fr1_rpy from 11.3 to
     /// 12.5 mm).
     pub motion_prior_feature_angular_accel_deg_s2: f64,
-    /// The prior's centre takes the motion model's step from the last frame only as far
-    /// as the last frame's position was known: the step is shrunk by `S (S + 2 C)^-1`,
-    /// `C` the covariance of the last frame's position from its data alone and `S` that
-    /// of a step at this speed, `(speed dt)^2` per axis, m/s; 0 = the whole step. Along
-    /// a direction the last frame's data left free (a wall's in-plane motion) its error
-    /// would otherwise go into the velocity and on into every next frame (rotation seed 1
-    /// drifted 4-7 mm a frame along one wall). Default 0.5 (the 24 synthetic low-texture
-    /// sequences with all terms 5.38 -> 4.65 mm, held out 7.68 -> 6.47 mm; 0.3: 4.65 mm).
-    pub motion_prior_speed_m_s: f64,
     /// Pixels of a node's block whose depth noise is independent: on a frame tracked on
     /// features, a node's depth sigma is the pixel's over the square root of this, and
     /// the reference normal's tilt across the pair joins it; default 1 (a structured-
@@ -136,7 +127,6 @@ impl Default for DepthAlignmentConfig {
             motion_prior_accel_m_s2: 12.0,
             motion_prior_angular_accel_deg_s2: 800.0,
             motion_prior_feature_angular_accel_deg_s2: 3200.0,
-            motion_prior_speed_m_s: 0.5,
             independent_pixels_per_node: 1.0,
             renewal_sigma_m: 0.006,
             renewal_overlap: 0.85,

@@ -129,7 +129,6 @@ impl TrackingConfig {
                 "motion_prior_feature_angular_accel_deg_s2",
                 self.depth.motion_prior_feature_angular_accel_deg_s2,
             ),
-            ("motion_prior_speed_m_s", self.depth.motion_prior_speed_m_s),
         ] {
             d.not_below(field, value, 0.0)?;
         }

@@ -7,7 +7,7 @@ use super::{TrackedFrame, Tracker};
 use crate::depth_alignment::needs_new_reference;
 use crate::depth_grid::DepthGrid;
 use crate::map::Map;
-use crate::motion_prior::{PriorFor, motion_prior, shrunk_prediction};
+use crate::motion_prior::{PriorFor, motion_prior};
 use crate::status::TrackingStatus;
 use gfs_core::ids::KeyFrameId;
 use gfs_optim::analyse_constraint;
@@ -123,17 +123,7 @@ impl Tracker {
     /// The frame's prediction as a prior, for a frame tracked on `tracked_on`.
     fn motion_prior(&self, tracked_on: PriorFor) -> Option<PosePrior> {
         let dt = self.predicted_over_s?;
-        let speed = self.config.depth.motion_prior_speed_m_s;
-        let centre = match (&self.last, &self.last_information) {
-            (Some(last), Some(information)) if speed > 0.0 => shrunk_prediction(
-                &self.predicted,
-                &last.camera_from_world,
-                information,
-                speed * dt,
-            ),
-            _ => self.predicted,
-        };
-        motion_prior(&self.config.depth, &centre, dt, tracked_on)
+        motion_prior(&self.config.depth, &self.predicted, dt, tracked_on)
     }
 
     /// Keeps the depth of the reference keyframe: when the reference changed to the
@@ -194,17 +184,6 @@ impl Tracker {
                 self.depth_associator.overlap(),
                 &frame.features.depth,
             )
-    }
-
-    /// What the last optimisation's data determined of `frame`'s pose: less the normals'
-    /// noise where its depth was paired (the associator's state is another frame's
-    /// otherwise).
-    pub(super) fn determined_information(&self, frame: &TrackedFrame) -> Matrix6<f64> {
-        if frame.inliers.depth > 0 {
-            self.information_less_normal_noise(&frame.camera_from_world)
-        } else {
-            *self.solver.information()
-        }
     }
 
     /// The last optimisation's information less what the depth pairs' normal noise

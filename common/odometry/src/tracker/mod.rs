@@ -98,11 +98,6 @@ pub struct Tracker {
     /// velocity to predict over: the prior of the depth and geometry passes
     /// (`motion_prior.rs`) needs both.
     predicted_over_s: Option<f64>,
-    /// What the data of the frame being tracked, then of the last frame, determined of
-    /// its pose (the normals' noise discounted): how well the motion model's step from it
-    /// is known (`motion_prior.rs`).
-    tracked_information: Option<nalgebra::Matrix6<f64>>,
-    last_information: Option<nalgebra::Matrix6<f64>>,
 }
 
 impl Tracker {
@@ -137,8 +132,6 @@ impl Tracker {
             keyframe_depth: None,
             predicted: Isometry3::identity(),
             predicted_over_s: None,
-            tracked_information: None,
-            last_information: None,
             config,
             camera,
         }
@@ -190,7 +183,6 @@ impl Tracker {
         if frame.status == TrackingStatus::Relocalised {
             self.motion.reset_velocity();
         }
-        self.last_information = self.tracked_information.take();
         self.last = Some(frame);
     }
 
@@ -200,7 +192,6 @@ impl Tracker {
         self.motion = MotionModel::default();
         self.motion
             .update(&frame.camera_from_world, frame.features.timestamp, true);
-        self.last_information = None;
         self.last = Some(frame);
     }
 
@@ -226,7 +217,6 @@ impl Tracker {
     /// Resumes from a checkpoint: the motion model and the last frame as they were.
     pub fn restore(&mut self, motion: MotionModel, last: TrackedFrame) {
         self.motion = motion;
-        self.last_information = None;
         self.last = Some(last);
     }
 
@@ -251,7 +241,6 @@ impl Tracker {
         self.predicted = predicted;
         self.predicted_over_s = self.motion.interval_to(features.timestamp);
         let mut frame = TrackedFrame::untracked(features, predicted);
-        self.tracked_information = None;
         self.points.index(&frame.features);
         self.lines.index(&frame.features);
         let moving = self.motion.velocity().is_some();
@@ -292,7 +281,6 @@ impl Tracker {
                     TrackingStatus::Tracked
                 };
             }
-            self.tracked_information = Some(self.determined_information(&frame));
             return frame;
         }
         frame.restart(&predicted);
@@ -308,7 +296,6 @@ impl Tracker {
             } else {
                 TrackingStatus::Tracked
             };
-            self.tracked_information = Some(self.determined_information(&frame));
             return frame;
         }
         frame.restart(&predicted);
