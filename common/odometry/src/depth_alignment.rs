@@ -468,6 +468,16 @@ mod tests {
             0.015,
             1.0,
         );
+        let information = optimise_on_depth(camera, camera_from_world, pairs).information;
+        (information, associator.overlap())
+    }
+
+    /// The pose optimised from `camera_from_world` on the depth pairs `pairs` alone.
+    fn optimise_on_depth(
+        camera: &PinholeCamera,
+        camera_from_world: &Isometry3<f64>,
+        pairs: &[gfs_optim::DepthObservation],
+    ) -> gfs_optim::PoseResult {
         let mut result = gfs_optim::PoseResult::default();
         gfs_optim::optimize_pose_with_depth(
             camera,
@@ -481,7 +491,7 @@ mod tests {
             &gfs_optim::PoseOptimizerConfig::default(),
             &mut result,
         );
-        (result.information, associator.overlap())
+        result
     }
 
     #[test]
@@ -553,24 +563,11 @@ mod tests {
         let current = planes_depth(&camera, &truth, &CORNER);
         let mut pose = last_pose;
         let mut associator = DepthAssociator::default();
-        let mut result = gfs_optim::PoseResult::default();
         for gate in &config.max_distance_m {
             let pairs = associator.associate(
                 &config, &camera, &current, &pose, &last, &last_pose, *gate, 1.0,
             );
-            gfs_optim::optimize_pose_with_depth(
-                &camera,
-                &pose,
-                &[],
-                &[],
-                gfs_optim::SurfaceObservations {
-                    depth: pairs,
-                    ..gfs_optim::SurfaceObservations::default()
-                },
-                &gfs_optim::PoseOptimizerConfig::default(),
-                &mut result,
-            );
-            pose = result.camera_from_world;
+            pose = optimise_on_depth(&camera, &pose, pairs).camera_from_world;
         }
         let error = pose * truth.inverse();
         assert!(error.translation.vector.norm() < 1e-3, "{error}");
