@@ -187,6 +187,8 @@ pub struct DepthAssociator {
     /// Per pair, the sensor's and the association's variance and the squared
     /// tangential offset of the two nodes (reused).
     variances: Vec<(f64, f64)>,
+    /// Per pair, the squared angle between the two normals, rad^2 (reused).
+    angles2: Vec<f64>,
     /// Variance of one node normal's tilt along a tangent direction, rad^2, from the
     /// angles between the last pass's paired normals.
     normal_variance: f64,
@@ -212,8 +214,8 @@ impl DepthAssociator {
     ) -> &[DepthObservation] {
         self.observations.clear();
         self.variances.clear();
+        self.angles2.clear();
         self.source_nodes = 0;
-        let mut angle2_sum = 0.0;
         let world_from_reference = reference_from_world.inverse();
         let reference_from_current = reference_from_world * current_from_world.inverse();
         let min_cos = config.max_normal_angle_deg.to_radians().cos();
@@ -243,7 +245,7 @@ impl DepthAssociator {
                 {
                     continue;
                 }
-                angle2_sum += cos.clamp(-1.0, 1.0).acos().powi(2);
+                self.angles2.push(cos.clamp(-1.0, 1.0).acos().powi(2));
                 // The sensor noise of both ends, and the pass's association uncertainty:
                 // a coarse pass pairs points up to its gate apart, and a tight chi-square
                 // test would reject the only pairs of a weakly seen direction.
@@ -260,9 +262,7 @@ impl DepthAssociator {
                 });
             }
         }
-        // Two independent normals, each tilted with two tangent components: the
-        // squared angle between them averages four times one component's variance.
-        self.normal_variance = angle2_sum / (4.0 * self.observations.len().max(1) as f64);
+        self.normal_variance = tangent_variance_from_angles(&mut self.angles2);
         // The reference normal's tilt across the nodes' tangential offset (they are
         // not the same surface point) is in the distance too. The Kinect model was
         // fitted to depth deviations from planes, its normals' tilt included; only a
@@ -302,6 +302,22 @@ impl DepthAssociator {
         }
         h
     }
+}
+
+/// One normal's tilt variance along a tangent direction, rad^2, from the squared angles
+/// between paired normals (reordered). Two independent normals, each tilted with two
+/// tangent components of variance `v`, differ by an angle whose square is `2 v` times a
+/// chi-square of two degrees of freedom, whose median is `2 ln 2`. The median, not the
+/// mean: the pairs across a crease (a node's block mixing two surfaces) have normals
+/// tens of degrees apart, and their mean would make the noise of a corner's normals
+/// appear large enough to discount directions its planes do hold.
+fn tangent_variance_from_angles(angles2: &mut [f64]) -> f64 {
+    if angles2.is_empty() {
+        return 0.0;
+    }
+    let middle = angles2.len() / 2;
+    let (_, median, _) = angles2.select_nth_unstable_by(middle, f64::total_cmp);
+    *median / (4.0 * std::f64::consts::LN_2)
 }
 
 #[cfg(test)]
@@ -373,8 +389,8 @@ mod tests {
         );
         // Exact normals: nothing lent.
         assert_eq!(associator.normal_noise_information(&pose), Matrix6::zeros());
-        // Every frame normal tilted by 0.02 rad: a variance of 0.02^2 / 4 per
-        // component, along the wall's x and y only.
+        // Every frame normal tilted by 0.02 rad: read as the median of tilts of
+        // variance 0.02^2 / (4 ln 2) per component, along the wall's x and y only.
         let tilt = [0.02f32.sin(), 0.0, -0.02f32.cos()];
         current.normals.iter_mut().for_each(|n| *n = tilt);
         let pairs = associator
@@ -384,11 +400,40 @@ mod tests {
             .to_vec();
         let h = associator.normal_noise_information(&pose);
         let w: f64 = pairs.iter().map(|o| o.inv_sigma2).sum();
-        let expected = w * 0.02f64.powi(2) / 4.0;
+        let expected = w * 0.02f64.powi(2) / (4.0 * std::f64::consts::LN_2);
         assert!(!pairs.is_empty());
         assert!((h[(0, 0)] / expected - 1.0).abs() < 1e-3, "{h}");
         assert!((h[(1, 1)] / expected - 1.0).abs() < 1e-3, "{h}");
         assert!(h[(2, 2)].abs() < 1e-9 * expected && h[(3, 3)] == 0.0, "{h}");
+    }
+
+    #[test]
+    fn the_normals_noise_is_read_from_the_pairs_and_not_from_a_crease() {
+        // Pairs of normals each tilted by two Gaussian components of 0.01 rad, and one
+        // pair in ten across a crease (30 degrees or more apart).
+        let mut rng = gfs_core::rng::SplitMix64::new(5);
+        let sigma = 0.01;
+        let mut angles2 = Vec::new();
+        for k in 0..4000 {
+            let angle2 = if k % 10 == 0 {
+                (0.5 + rng.gaussian().abs()).powi(2)
+            } else {
+                // Their difference: two components of twice one normal's variance.
+                (0..2).map(|_| 2.0 * (sigma * rng.gaussian()).powi(2)).sum()
+            };
+            angles2.push(angle2);
+        }
+        let variance = tangent_variance_from_angles(&mut angles2);
+        // The creases' tenth moves the median to the chi-square's 56th percentile
+        // (17 % above its median).
+        assert!(
+            (variance / sigma.powi(2) - 1.0).abs() < 0.25,
+            "{variance} against {}",
+            sigma.powi(2)
+        );
+        let mean = angles2.iter().sum::<f64>() / (4.0 * angles2.len() as f64);
+        assert!(mean > 50.0 * sigma.powi(2), "{mean}");
+        assert_eq!(tangent_variance_from_angles(&mut []), 0.0);
     }
 
     #[test]
@@ -397,7 +442,8 @@ mod tests {
         let config = DepthAlignmentConfig::default();
         let reference = wall(&camera, 2.0);
         // The frame 2.1 cm to the side (its nodes fall between the reference's), every
-        // normal tilted by 0.2 rad: a variance of 0.2^2 / 4 per tangent component.
+        // normal tilted by 0.2 rad: read as a variance of 0.2^2 / (4 ln 2) per tangent
+        // component.
         let mut current = wall(&camera, 2.0);
         let tilt = [0.2f32.sin(), 0.0, -0.2f32.cos()];
         current.normals.iter_mut().for_each(|n| *n = tilt);
@@ -438,7 +484,8 @@ mod tests {
         assert_eq!(averaged.len(), pixel.len());
         let mut offset_pairs = 0;
         for (w, tangential2) in &averaged {
-            let sigma2 = sensor / 16.0 + association + tangential2 * 0.2f64.powi(2) / 4.0;
+            let tilt = 0.2f64.powi(2) / (4.0 * std::f64::consts::LN_2);
+            let sigma2 = sensor / 16.0 + association + tangential2 * tilt;
             assert!((w * sigma2 - 1.0).abs() < 1e-6, "{w} {tangential2}");
             if *tangential2 > 1e-5 {
                 offset_pairs += 1;
