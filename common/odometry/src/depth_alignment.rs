@@ -81,6 +81,12 @@ pub struct DepthAlignmentConfig {
     /// 30 Hz: the features measure the rotation; 800 took TUM fr1_rpy from 11.3 to
     /// 12.5 mm).
     pub motion_prior_feature_angular_accel_deg_s2: f64,
+    /// How fast the camera centre's velocity, which centres the prior, may change, m/s^2:
+    /// each frame's step moves the velocity as far as its data placed the frame against
+    /// this (`crate::motion_prior::CentreVelocity`); default 4 (the 24 synthetic
+    /// low-texture sequences with all terms 5.32 -> 4.20 mm against the step from the
+    /// last two poses; 12, the prior's own: 5.60 mm).
+    pub motion_prior_velocity_accel_m_s2: f64,
     /// Pixels of a node's block whose depth noise is independent: on a frame tracked on
     /// features, a node's depth sigma is the pixel's over the square root of this, and
     /// the reference normal's tilt across the pair joins it; default 1 (a structured-
@@ -127,6 +133,7 @@ impl Default for DepthAlignmentConfig {
             motion_prior_accel_m_s2: 12.0,
             motion_prior_angular_accel_deg_s2: 800.0,
             motion_prior_feature_angular_accel_deg_s2: 3200.0,
+            motion_prior_velocity_accel_m_s2: 4.0,
             independent_pixels_per_node: 1.0,
             renewal_sigma_m: 0.006,
             renewal_overlap: 0.85,

@@ -129,6 +129,10 @@ impl TrackingConfig {
                 "motion_prior_feature_angular_accel_deg_s2",
                 self.depth.motion_prior_feature_angular_accel_deg_s2,
             ),
+            (
+                "motion_prior_velocity_accel_m_s2",
+                self.depth.motion_prior_velocity_accel_m_s2,
+            ),
         ] {
             d.not_below(field, value, 0.0)?;
         }

@@ -120,10 +120,13 @@ impl Tracker {
         true
     }
 
-    /// The frame's prediction as a prior, for a frame tracked on `tracked_on`.
+    /// The frame's prediction as a prior, for a frame tracked on `tracked_on`: its
+    /// rotation the motion model's, its centre where the filtered velocity takes the last
+    /// frame's ([`crate::motion_prior::CentreVelocity`]).
     fn motion_prior(&self, tracked_on: PriorFor) -> Option<PosePrior> {
         let dt = self.predicted_over_s?;
-        motion_prior(&self.config.depth, &self.predicted, dt, tracked_on)
+        let centre = self.centre_velocity.predict(&self.predicted, dt);
+        motion_prior(&self.config.depth, &centre, dt, tracked_on)
     }
 
     /// Keeps the depth of the reference keyframe: when the reference changed to the
@@ -184,6 +187,17 @@ impl Tracker {
                 self.depth_associator.overlap(),
                 &frame.features.depth,
             )
+    }
+
+    /// What the last optimisation's data determined of `frame`'s pose: less the normals'
+    /// noise where its depth was paired (the associator's state is another frame's
+    /// otherwise).
+    pub(super) fn determined_information(&self, frame: &TrackedFrame) -> Matrix6<f64> {
+        if frame.inliers.depth > 0 {
+            self.information_less_normal_noise(&frame.camera_from_world)
+        } else {
+            *self.solver.information()
+        }
     }
 
     /// The last optimisation's information less what the depth pairs' normal noise

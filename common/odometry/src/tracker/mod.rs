@@ -24,6 +24,7 @@ use crate::matching::{
     LineProjectionMatcher, PointProjectionMatcher, ProjectionCandidate, ScalePyramid,
 };
 use crate::motion::MotionModel;
+use crate::motion_prior::CentreVelocity;
 use crate::plane_association::PlaneAssociator;
 use crate::pose_solver::{Inliers, PoseSolver};
 use crate::ransac::{Correspondence, RigidRansac};
@@ -98,6 +99,11 @@ pub struct Tracker {
     /// velocity to predict over: the prior of the depth and geometry passes
     /// (`motion_prior.rs`) needs both.
     predicted_over_s: Option<f64>,
+    /// What the data of the frame being tracked determined of its pose (the normals'
+    /// noise discounted), for the centre's velocity.
+    tracked_information: Option<nalgebra::Matrix6<f64>>,
+    /// The camera centre's velocity as the frames' data placed them: the prior's centre.
+    centre_velocity: CentreVelocity,
 }
 
 impl Tracker {
@@ -132,6 +138,8 @@ impl Tracker {
             keyframe_depth: None,
             predicted: Isometry3::identity(),
             predicted_over_s: None,
+            tracked_information: None,
+            centre_velocity: CentreVelocity::default(),
             config,
             camera,
         }
@@ -182,7 +190,14 @@ impl Tracker {
         );
         if frame.status == TrackingStatus::Relocalised {
             self.motion.reset_velocity();
+            self.centre_velocity = CentreVelocity::default();
         }
+        self.centre_velocity.update(
+            &frame.camera_from_world,
+            frame.features.timestamp,
+            self.tracked_information.take().as_ref(),
+            self.config.depth.motion_prior_velocity_accel_m_s2,
+        );
         self.last = Some(frame);
     }
 
@@ -192,6 +207,7 @@ impl Tracker {
         self.motion = MotionModel::default();
         self.motion
             .update(&frame.camera_from_world, frame.features.timestamp, true);
+        self.restart_centre_velocity(&frame);
         self.last = Some(frame);
     }
 
@@ -209,14 +225,28 @@ impl Tracker {
     /// (`new_from_old`, a loop correction), so that tracking goes on in the corrected map.
     pub fn shift_world(&mut self, new_from_old: &Isometry3<f64>) {
         self.motion.shift_world(new_from_old);
+        self.centre_velocity.shift_world(new_from_old);
         if let Some(last) = &mut self.last {
             last.camera_from_world *= new_from_old.inverse();
         }
     }
 
+    /// Starts the centre's velocity afresh at `frame` (no velocity: the motion model's
+    /// step centres the prior until two frames have been tracked).
+    fn restart_centre_velocity(&mut self, frame: &TrackedFrame) {
+        self.centre_velocity = CentreVelocity::default();
+        self.centre_velocity.update(
+            &frame.camera_from_world,
+            frame.features.timestamp,
+            None,
+            self.config.depth.motion_prior_velocity_accel_m_s2,
+        );
+    }
+
     /// Resumes from a checkpoint: the motion model and the last frame as they were.
     pub fn restore(&mut self, motion: MotionModel, last: TrackedFrame) {
         self.motion = motion;
+        self.restart_centre_velocity(&last);
         self.last = Some(last);
     }
 
@@ -241,6 +271,7 @@ impl Tracker {
         self.predicted = predicted;
         self.predicted_over_s = self.motion.interval_to(features.timestamp);
         let mut frame = TrackedFrame::untracked(features, predicted);
+        self.tracked_information = None;
         self.points.index(&frame.features);
         self.lines.index(&frame.features);
         let moving = self.motion.velocity().is_some();
@@ -281,6 +312,7 @@ impl Tracker {
                     TrackingStatus::Tracked
                 };
             }
+            self.tracked_information = Some(self.determined_information(&frame));
             return frame;
         }
         frame.restart(&predicted);
@@ -296,6 +328,7 @@ impl Tracker {
             } else {
                 TrackingStatus::Tracked
             };
+            self.tracked_information = Some(self.determined_information(&frame));
             return frame;
         }
         frame.restart(&predicted);
