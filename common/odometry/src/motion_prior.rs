@@ -175,6 +175,9 @@ mod tests {
         assert!(motion_prior(&off, &predicted, dt, PriorFor::Geometry).is_none());
     }
 
+    const DT: f64 = 1.0 / 30.0;
+    const ACCEL: f64 = 4.0;
+
     /// A camera at `centre` looking along world x (its z), turned 90 degrees about y.
     fn pose_at(centre: Vector3<f64>) -> Isometry3<f64> {
         let rotation =
@@ -182,52 +185,51 @@ mod tests {
         Isometry3::from_parts(Translation3::from(-(rotation * centre)), rotation)
     }
 
-    fn centre(pose: &Isometry3<f64>) -> Vector3<f64> {
-        pose.inverse().translation.vector
+    /// Takes in frame `k` (at `k DT`), its camera at `centre`.
+    fn take(
+        filter: &mut CentreVelocity,
+        k: u32,
+        centre: [f64; 3],
+        information: Option<&Matrix6<f64>>,
+    ) {
+        let pose = pose_at(Vector3::from(centre));
+        filter.update(&pose, f64::from(k) * DT, information, ACCEL);
+    }
+
+    /// Where the filter centres the next frame, one `DT` on.
+    fn next_centre(filter: &CentreVelocity) -> Vector3<f64> {
+        let predicted = pose_at(Vector3::new(0.5, 0.5, 0.5));
+        let next = filter.predict(&predicted, DT);
+        assert!(next.rotation.angle_to(&predicted.rotation) < 1e-12);
+        next.inverse().translation.vector
+    }
+
+    /// Known to a tenth of a millimetre.
+    fn known() -> Matrix6<f64> {
+        Matrix6::identity() * 1e8
     }
 
     #[test]
     fn a_frame_free_along_a_direction_leaves_the_velocity_there_as_it_was() {
-        let dt = 1.0 / 30.0;
-        let accel = 12.0;
-        // Known to a tenth of a millimetre.
-        let known = Matrix6::identity() * 1e8;
         let mut filter = CentreVelocity::default();
         // 0.3 m/s along each world axis for three frames.
         for k in 0..3 {
-            let c = Vector3::repeat(0.01 * k as f64);
-            filter.update(&pose_at(c), k as f64 * dt, Some(&known), accel);
+            take(&mut filter, k, [0.01 * f64::from(k); 3], Some(&known()));
         }
-        let predicted = pose_at(Vector3::new(0.5, 0.5, 0.5));
-        let next = filter.predict(&predicted, dt);
-        assert!(
-            (centre(&next) - Vector3::repeat(0.03)).norm() < 1e-5,
-            "{next}"
-        );
-        assert!(next.rotation.angle_to(&predicted.rotation) < 1e-12);
+        assert!((next_centre(&filter) - Vector3::repeat(0.03)).norm() < 1e-5);
         // The next frame slid 2 cm along the camera's z (world x), which its data left
         // free: the velocity there stays; it is followed along the others.
-        let mut free = known;
+        let mut free = known();
         free[(2, 2)] = 0.0;
-        filter.update(
-            &pose_at(Vector3::new(0.05, 0.03, 0.03)),
-            3.0 * dt,
-            Some(&free),
-            accel,
-        );
-        let next = centre(&filter.predict(&predicted, dt));
+        take(&mut filter, 3, [0.05, 0.03, 0.03], Some(&free));
+        let next = next_centre(&filter);
         assert!(
             (next - Vector3::new(0.06, 0.04, 0.04)).norm() < 1e-5,
             "{next}"
         );
         // A frame not tracked (no information) keeps the velocity too.
-        filter.update(
-            &pose_at(Vector3::new(0.06, 0.04, 0.04)),
-            4.0 * dt,
-            None,
-            accel,
-        );
-        let next = centre(&filter.predict(&predicted, dt));
+        take(&mut filter, 4, [0.06, 0.04, 0.04], None);
+        let next = next_centre(&filter);
         assert!(
             (next - Vector3::new(0.07, 0.05, 0.05)).norm() < 1e-5,
             "{next}"
@@ -236,23 +238,15 @@ mod tests {
 
     #[test]
     fn a_step_known_as_well_as_the_velocity_changes_moves_it_halfway() {
-        let dt = 1.0 / 30.0;
-        let accel = 12.0;
-        let known = Matrix6::identity() * 1e8;
         let mut filter = CentreVelocity::default();
-        filter.update(&pose_at(Vector3::zeros()), 0.0, Some(&known), accel);
-        filter.update(&pose_at(Vector3::zeros()), dt, Some(&known), accel);
-        // The step's covariance 2 C / dt^2 equal to the change's (a dt)^2 along x.
-        let mut half = known;
-        half[(2, 2)] = 2.0 / (accel * dt * dt).powi(2);
-        filter.update(
-            &pose_at(Vector3::new(0.01, 0.0, 0.0)),
-            2.0 * dt,
-            Some(&half),
-            accel,
-        );
-        let next = centre(&filter.predict(&pose_at(Vector3::zeros()), dt));
+        take(&mut filter, 0, [0.0; 3], Some(&known()));
+        take(&mut filter, 1, [0.0; 3], Some(&known()));
+        // The step's covariance 2 C / DT^2 equal to the change's (ACCEL DT)^2 along x.
+        let mut half = known();
+        half[(2, 2)] = 2.0 / (ACCEL * DT * DT).powi(2);
+        take(&mut filter, 2, [0.01, 0.0, 0.0], Some(&half));
         // Velocity 0.15 m/s along x: 5 mm further.
+        let next = next_centre(&filter);
         assert!(
             (next - Vector3::new(0.015, 0.0, 0.0)).norm() < 1e-6,
             "{next}"
@@ -261,23 +255,16 @@ mod tests {
 
     #[test]
     fn a_loop_correction_moves_the_centre_and_turns_the_velocity() {
-        let dt = 1.0 / 30.0;
-        let known = Matrix6::identity() * 1e8;
         let mut filter = CentreVelocity::default();
-        filter.update(&pose_at(Vector3::zeros()), 0.0, Some(&known), 12.0);
-        filter.update(
-            &pose_at(Vector3::new(0.01, 0.0, 0.0)),
-            dt,
-            Some(&known),
-            12.0,
-        );
+        take(&mut filter, 0, [0.0; 3], Some(&known()));
+        take(&mut filter, 1, [0.01, 0.0, 0.0], Some(&known()));
         let new_from_old = Isometry3::from_parts(
             Translation3::new(1.0, 0.0, 0.0),
             nalgebra::UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 90f64.to_radians()),
         );
         filter.shift_world(&new_from_old);
-        let next = centre(&filter.predict(&pose_at(Vector3::zeros()), dt));
         // From (1, 0.01, 0) on along world y.
+        let next = next_centre(&filter);
         assert!(
             (next - Vector3::new(1.0, 0.02, 0.0)).norm() < 1e-6,
             "{next}"
