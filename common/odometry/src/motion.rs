@@ -17,7 +17,7 @@ pub struct MotionModel {
 
 /// Frame intervals outside this range (seconds) do not give an angular rate: equal or
 /// reversed timestamps, or a gap after which the last motion means little.
-const RATE_INTERVAL_S: std::ops::RangeInclusive<f64> = 1e-4..=1.0;
+pub(crate) const RATE_INTERVAL_S: std::ops::RangeInclusive<f64> = 1e-4..=1.0;
 /// Most velocity steps a prediction extrapolates over.
 const MAX_STEPS: f64 = 4.0;
 

@@ -9,14 +9,12 @@
 //! prior is looser (`motion_prior_feature_angular_accel_deg_s2`).
 
 use crate::depth_alignment::DepthAlignmentConfig;
+use crate::motion::RATE_INTERVAL_S;
 use gfs_optim::residuals::PosePrior;
 use nalgebra::{Isometry3, Matrix3, Matrix6, Point3, Translation3, Vector3};
 
 /// Information below which a direction of the last pose is unknown (a kilometre).
 const MIN_INFORMATION: f64 = 1e-6;
-/// Frame intervals, seconds, over which a step measures the velocity (as the motion
-/// model's: not equal or reversed timestamps, not a gap of over a second).
-const RATE_INTERVAL_S: std::ops::RangeInclusive<f64> = 1e-4..=1.0;
 
 /// What tracked the frame, for the prior's rotational sigma.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,14 +43,18 @@ pub fn motion_prior(
     (sigma_m > 0.0 && sigma_rad > 0.0).then(|| PosePrior::isotropic(*predicted, sigma_m, sigma_rad))
 }
 
-/// The camera centre's velocity (world frame, m/s) as each frame's data placed it: a
-/// Kalman filter of a velocity that changes by `a dt` per axis over an interval `dt`
-/// (`a` = `[tracking.depth] motion_prior_velocity_accel_m_s2`), measured by the step between the last
-/// two frames, whose covariance is twice the last frame's from its data alone. Along a
-/// direction a frame's data left free (a bare wall's in-plane motion) its error does not
-/// go into the velocity and on into every next frame, as in a step taken from the last
-/// two poses (rotation seed 1 drifted 4-7 mm a frame along one wall); where the data
-/// hold the frame, the velocity follows the steps.
+/// The camera centre's velocity (world frame, m/s) as each frame's data placed it. Each
+/// step between the last two frames (over the motion model's intervals) moves it with
+/// the gain `Q (Q + 2 C / dt^2)^-1`: `C` the last frame's centre covariance from its
+/// data alone, `Q = (a dt)^2` per axis what the velocity may change in the interval
+/// (`a` = `[tracking.depth] motion_prior_velocity_accel_m_s2`). The velocity's own
+/// uncertainty is not carried from frame to frame (a Kalman filter proper): after a
+/// wall, the first frame claiming to hold the slide would set it whole, on information
+/// the photometric term overstates. Along a direction a frame's data left free (a bare
+/// wall's in-plane motion) its error does not go into the velocity and on into every
+/// next frame, as in a step taken from the last two poses (rotation seed 1 drifted 4-7
+/// mm a frame along one wall); where the data hold the frame, the velocity follows the
+/// steps.
 #[derive(Clone, Debug, Default)]
 pub struct CentreVelocity {
     /// The last frame's centre and timestamp.

@@ -188,16 +188,18 @@ impl Tracker {
             frame.features.timestamp,
             frame.status.is_tracked(),
         );
+        let information = self.tracked_information.take();
         if frame.status == TrackingStatus::Relocalised {
             self.motion.reset_velocity();
-            self.centre_velocity = CentreVelocity::default();
+            self.restart_centre_velocity(&frame);
+        } else {
+            self.centre_velocity.update(
+                &frame.camera_from_world,
+                frame.features.timestamp,
+                information.as_ref(),
+                self.config.depth.motion_prior_velocity_accel_m_s2,
+            );
         }
-        self.centre_velocity.update(
-            &frame.camera_from_world,
-            frame.features.timestamp,
-            self.tracked_information.take().as_ref(),
-            self.config.depth.motion_prior_velocity_accel_m_s2,
-        );
         self.last = Some(frame);
     }
 
