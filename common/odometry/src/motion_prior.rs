@@ -10,6 +10,7 @@
 
 use crate::depth_alignment::DepthAlignmentConfig;
 use crate::motion::RATE_INTERVAL_S;
+use gfs_optim::map_eigenvalues;
 use gfs_optim::residuals::PosePrior;
 use nalgebra::{Isometry3, Matrix3, Matrix6, Point3, Translation3, Vector3};
 
@@ -127,12 +128,8 @@ fn centre_covariance(
     information: &Matrix6<f64>,
     camera_from_world: &Isometry3<f64>,
 ) -> Matrix3<f64> {
-    let eigen = ((information + information.transpose()) * 0.5).symmetric_eigen();
-    let variances = eigen
-        .eigenvalues
-        .map(|l| if l > MIN_INFORMATION { 1.0 / l } else { 1e6 });
-    let covariance =
-        eigen.eigenvectors * Matrix6::from_diagonal(&variances) * eigen.eigenvectors.transpose();
+    let variance = |l: f64| if l > MIN_INFORMATION { 1.0 / l } else { 1e6 };
+    let covariance = map_eigenvalues(information, variance);
     // A left perturbation `rho` of camera_from_world moves the centre by `-R^T rho`.
     let r = camera_from_world.rotation.to_rotation_matrix().into_inner();
     r.transpose() * covariance.fixed_view::<3, 3>(0, 0) * r

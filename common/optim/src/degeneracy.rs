@@ -27,6 +27,15 @@ impl PoseConstraint {
     }
 }
 
+/// The symmetric part of `information` with each eigenvalue `l` replaced by `f(l)` (its
+/// eigenvectors kept): clamping the directions an estimate took below zero, or a
+/// covariance that leaves the directions without information unknown.
+pub fn map_eigenvalues(information: &Matrix6<f64>, f: impl Fn(f64) -> f64) -> Matrix6<f64> {
+    let eigen = ((information + information.transpose()) * 0.5).symmetric_eigen();
+    let mapped = eigen.eigenvalues.map(f);
+    eigen.eigenvectors * Matrix6::from_diagonal(&mapped) * eigen.eigenvectors.transpose()
+}
+
 /// The directions of `information` whose standard deviation exceeds `max_sigma_m`, with
 /// rotations weighed by `lever_arm_m`.
 pub fn analyse_constraint(

@@ -72,7 +72,7 @@ pub use ba::{
     BaPlaneObservation, BaPointObservation, BaPose, BaProblem, BaResult, LocalBundleAdjuster,
     ONE_DEGREE_INFORMATION,
 };
-pub use degeneracy::{PoseConstraint, analyse_constraint};
+pub use degeneracy::{PoseConstraint, analyse_constraint, map_eigenvalues};
 pub use pose::{
     DepthObservation, LineObservation, PhotometricObservation, PhotometricTerm, PlaneObservation,
     PointObservation, PoseOptimizerConfig, PoseResult, SurfaceObservations, optimize_pose,

@@ -4,6 +4,7 @@
 //! classification, never held from an earlier pose.
 
 use super::{Block, Gate, flagged};
+use crate::map_eigenvalues;
 use crate::pose::lm::Normal;
 use crate::pose::{PhotometricObservation, PhotometricTerm, PoseOptimizerConfig};
 use crate::residuals::Photometric;
@@ -132,10 +133,12 @@ impl Block for PhotometricBlock<'_> {
         // sums `sigma_g^2 sum w J_px^T J_px` of information the surface does not give (a
         // noisy gradient looks like texture, but the next frame's noise is another). The
         // frame's and the reference's gradients see the same surface with independent
-        // noise: `E |g_c - gain g_r|^2 = 4 sigma_g^2`.
+        // noise: `E |g_c - gain g_r|^2 = 4 sigma_g^2`. A direction left with less than
+        // none has none.
         if weight > 0.0 {
-            own.h = without_negative_directions(
+            own.h = map_eigenvalues(
                 &(own.h - pixel_information * (difference2 / (4.0 * weight))),
+                |l| l.max(0.0),
             );
         }
         normal.add_normal(&own);
@@ -155,14 +158,6 @@ impl Block for PhotometricBlock<'_> {
                     .is_some_and(|s| s <= threshold);
         }
     }
-}
-
-/// The symmetric part of `h` with its negative directions (where taking out the noise's
-/// share left less than none) set to zero.
-fn without_negative_directions(h: &Matrix6<f64>) -> Matrix6<f64> {
-    let eigen = ((h + h.transpose()) * 0.5).symmetric_eigen();
-    let clamped = eigen.eigenvalues.map(|l| l.max(0.0));
-    eigen.eigenvectors * Matrix6::from_diagonal(&clamped) * eigen.eigenvectors.transpose()
 }
 
 #[cfg(test)]
