@@ -60,6 +60,9 @@ pub(crate) struct ReducedSystem {
     plane_parallel_slot: Vec<usize>,
     plane_perpendicular_slot: Vec<usize>,
     factorization: Option<BlockCholesky>,
+    /// The block count and slots `factorization` was analysed for.
+    analysed_blocks: usize,
+    analysed_slots: Vec<(usize, usize)>,
     slot_values: Vec<Matrix6<f64>>,
     rhs: Vec<f64>,
     point_inverse: Vec<Matrix3<f64>>,
@@ -350,11 +353,22 @@ impl ReducedSystem {
 
         self.analyse_kept_planes(terms, flags);
 
-        self.factorization =
-            BlockCholesky::analyse(self.blocks, &self.slots).map_err(|reason| BaError::Solver {
-                dimension: 6 * self.blocks,
-                reason,
-            })?;
+        // The second pass, and often the next keyframe's BA, keeps the pattern: its
+        // symbolic analysis (the ordering) is then still valid.
+        if self.factorization.is_none()
+            || self.analysed_blocks != self.blocks
+            || self.analysed_slots != self.slots
+        {
+            self.factorization =
+                BlockCholesky::analyse(self.blocks, &self.slots).map_err(|reason| {
+                    BaError::Solver {
+                        dimension: 6 * self.blocks,
+                        reason,
+                    }
+                })?;
+            self.analysed_slots.clone_from(&self.slots);
+            self.analysed_blocks = self.blocks;
+        }
         Ok(())
     }
 

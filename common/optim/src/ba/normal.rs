@@ -57,6 +57,8 @@ impl Linearization {
             .resize(p.plane_perpendicular.len(), Matrix3::zeros());
     }
 
+    /// Zeroes the sums. The pose-landmark blocks are left as they are: the linearisation
+    /// writes one for every active observation of a free pose, the only ones read.
     pub(crate) fn clear(&mut self) {
         self.cost = 0.0;
         self.h_pose.fill(Matrix6::zeros());
@@ -67,9 +69,6 @@ impl Linearization {
         self.g_line.fill(Vector6::zeros());
         self.h_plane.fill(Matrix3::zeros());
         self.g_plane.fill(Vector3::zeros());
-        self.w_plane_obs.fill(Matrix6x3::zeros());
-        self.w_point_obs.fill(Matrix6x3::zeros());
-        self.w_line_obs.fill(Matrix6::zeros());
         self.h_parallel.fill(Matrix6::zeros());
         self.h_perpendicular.fill(Matrix6::zeros());
         self.h_plane_parallel.fill(Matrix3::zeros());

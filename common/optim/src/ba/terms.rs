@@ -10,7 +10,7 @@ use crate::residuals::{
     PerpendicularPlanes, PlaneAxis, PointReprojection, StereoPointReprojection,
 };
 use crate::robust::{CHI2_1DOF_95, CHI2_2DOF_95, Huber};
-use nalgebra::{Isometry3, SMatrix, SVector, Vector3, Vector4};
+use nalgebra::{Isometry3, Matrix6, Matrix6x3, SMatrix, SVector, Vector3, Vector4};
 
 /// The current values of all variables.
 #[derive(Clone, Debug, Default)]
@@ -389,7 +389,8 @@ impl<'a> Terms<'a> {
         (ok && cost.is_finite()).then_some(cost)
     }
 
-    /// Linearises every active term at `v` into `lin` (blocks zeroed first).
+    /// Linearises every active term at `v` into `lin` (blocks zeroed first; a pose-landmark
+    /// block is written for every active observation, so it needs no zeroing).
     pub(crate) fn linearize(&self, v: &Values, flags: &BaFlags, lin: &mut Linearization) {
         lin.clear();
         let p = self.problem;
@@ -399,14 +400,15 @@ impl<'a> Terms<'a> {
                 continue;
             }
             let (pose, point) = (&v.poses[o.pose], &v.points[o.point]);
-            if o.depth > 0.0 {
-                let r = self.stereo(o);
-                if let Some(l) = r.linearize(camera, pose, point) {
-                    self.add_point(lin, k, &l.d_pose, &l.d_point, &l.error);
-                }
-            } else if let Some(l) = (PointReprojection { uv: o.uv }).linearize(camera, pose, point)
-            {
-                self.add_point(lin, k, &l.d_pose, &l.d_point, &l.error);
+            let added = if o.depth > 0.0 {
+                (self.stereo(o).linearize(camera, pose, point))
+                    .map(|l| self.add_point(lin, k, &l.d_pose, &l.d_point, &l.error))
+            } else {
+                (PointReprojection { uv: o.uv }.linearize(camera, pose, point))
+                    .map(|l| self.add_point(lin, k, &l.d_pose, &l.d_point, &l.error))
+            };
+            if added.is_none() {
+                lin.w_point_obs[k] = Matrix6x3::zeros();
             }
         }
         for prior in &p.line_priors {
@@ -427,6 +429,7 @@ impl<'a> Terms<'a> {
             }
             let r = LineReprojection { coeffs: o.coeffs };
             let Some(l) = r.linearize(camera, &v.poses[o.pose], &v.lines[o.line]) else {
+                lin.w_line_obs[k] = Matrix6::zeros();
                 continue;
             };
             let s = o.inv_sigma2 * l.error.norm_squared();
