@@ -7,8 +7,8 @@
 //! perpendicular pair couples two lines, so its lines are *kept* in the reduced system
 //! beside the free poses instead of being eliminated: the reduced matrix is then
 //! `[[S_pp, H_pl], [H_lp, H_ll]]` with `H_ll` block-sparse (one off-diagonal block per
-//! pair). It is solved by faer's sparse Cholesky (AMD ordering, supernodal), whose
-//! symbolic analysis is done once per pass and reused at every LM iteration. This is
+//! pair). It is solved by faer's sparse Cholesky (block AMD ordering, supernodal), whose
+//! symbolic analysis is reused at every LM iteration while the pattern holds. This is
 //! the exact Gauss-Newton/LM step, no approximation; its cost grows with the density
 //! of the pair graph, so give each line a few partners rather than all.
 //!

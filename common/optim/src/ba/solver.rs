@@ -63,8 +63,9 @@ impl Pass {
 /// Method (one LM step): linearise every active term; eliminate each point (3x3), each
 /// plane outside every plane pair (3x3) and each line outside every parallel /
 /// perpendicular pair (6x6) by the Schur complement; keep the paired lines and planes,
-/// which the structural terms couple, in the reduced system with the free poses; solve it with faer's sparse Cholesky (AMD ordering, symbolic
-/// analysis once per pass); back-substitute the eliminated landmarks. This is the exact
+/// which the structural terms couple, in the reduced system with the free poses; solve
+/// it with faer's sparse Cholesky (block AMD ordering, supernodal; the symbolic analysis
+/// is kept while the pattern holds); back-substitute the eliminated landmarks. This is the exact
 /// damped Gauss-Newton step. Passes: `first_pass_iterations`, chi-square outlier check,
 /// `second_pass_iterations` on the inliers, final check (ORB-SLAM2 local BA).
 ///
