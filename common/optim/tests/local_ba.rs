@@ -352,3 +352,38 @@ fn an_interrupted_optimisation_keeps_its_best_iterate() {
         );
     }
 }
+
+/// One adjuster reused over problems of other patterns (more line pairs, fewer
+/// keyframes) and of the same pattern gives what a fresh adjuster gives: the symbolic
+/// analysis it keeps is redone whenever the reduced system's pattern changes.
+#[test]
+fn a_reused_adjuster_matches_a_fresh_one() {
+    let specs = [
+        spec(),
+        spec(),
+        BaSceneSpec {
+            partners: 3,
+            ..spec()
+        },
+        BaSceneSpec {
+            keyframes: 6,
+            ..spec()
+        },
+        spec(),
+    ];
+    let mut reused = LocalBundleAdjuster::new();
+    for (k, spec) in specs.iter().enumerate() {
+        let mut kept = BaScene::new(spec, &mut Rng::new(21));
+        let mut fresh = BaScene::new(spec, &mut Rng::new(21));
+        let mut result = BaResult::default();
+        reused
+            .optimize(&mut kept.problem, &BaConfig::default(), &mut result)
+            .expect("valid problem");
+        let expected = run(&mut fresh, &BaConfig::default());
+        assert_eq!(result.iterations, expected.iterations, "problem {k}");
+        for (a, b) in kept.problem.poses.iter().zip(&fresh.problem.poses) {
+            assert_eq!(a.camera_from_world, b.camera_from_world, "problem {k}");
+        }
+        assert_eq!(kept.problem.lines, fresh.problem.lines, "problem {k}");
+    }
+}
