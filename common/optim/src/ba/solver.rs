@@ -65,9 +65,10 @@ impl Pass {
 /// perpendicular pair (6x6) by the Schur complement; keep the paired lines and planes,
 /// which the structural terms couple, in the reduced system with the free poses; solve
 /// it with faer's sparse Cholesky (block AMD ordering, supernodal; the symbolic analysis
-/// is kept while the pattern holds); back-substitute the eliminated landmarks. This is the exact
-/// damped Gauss-Newton step. Passes: `first_pass_iterations`, chi-square outlier check,
-/// `second_pass_iterations` on the inliers, final check (ORB-SLAM2 local BA).
+/// is kept while the pattern holds); back-substitute the eliminated landmarks. This is
+/// the exact damped Gauss-Newton step. Passes: `first_pass_iterations`, chi-square
+/// outlier check, `second_pass_iterations` on the inliers, final check (ORB-SLAM2 local
+/// BA).
 ///
 /// Cost: the point elimination is O(sum over points of observations^2) 6x6 blocks,
 /// and the sparse factorisation grows with the pair graph: give each line a few
