@@ -59,6 +59,8 @@ fn block_ordering(
 
 /// The matrix with its pattern and every factorisation buffer allocated once.
 pub(crate) struct BlockCholesky {
+    /// The slots the pattern was built from, (row block, column block) with row >= column.
+    slots: Vec<(usize, usize)>,
     matrix: SparseColMat<usize, f64>,
     /// For each stored (CSC) value of `matrix`, its index in the slot-major order.
     pattern_index: Vec<usize>,
@@ -117,6 +119,7 @@ impl BlockCholesky {
         let scratch = MemBuffer::try_new(scratch_req).map_err(|e| format!("{e:?}"))?;
         let factor_values = vec![0.0; symbolic.len_val()];
         Ok(Some(Self {
+            slots: slots.to_vec(),
             matrix,
             pattern_index,
             symbolic,
@@ -126,16 +129,21 @@ impl BlockCholesky {
         }))
     }
 
-    /// Factorises the matrix whose slot `s` (of the `slots` it was analysed with) is
+    /// Whether this analysis is the one of `slots` (which list every block's diagonal, so
+    /// they also fix the block count): a system whose pattern did not change keeps it.
+    pub(crate) fn is_for(&self, slots: &[(usize, usize)]) -> bool {
+        self.slots == slots
+    }
+
+    /// Factorises the matrix whose slot `s` (of the slots it was analysed with) is
     /// `value(s)` and overwrites `rhs` with the solution.
     pub(crate) fn factor_and_solve(
         &mut self,
-        slots: &[(usize, usize)],
         value: impl Fn(usize) -> Matrix6<f64>,
         rhs: &mut [f64],
     ) -> Result<(), NotPositiveDefinite> {
         self.values.clear();
-        for (s, &(rb, cb)) in slots.iter().enumerate() {
+        for (s, &(rb, cb)) in self.slots.iter().enumerate() {
             let value = value(s);
             for c in 0..6 {
                 for r in 0..6 {
@@ -178,6 +186,7 @@ impl BlockCholesky {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use gfs_core::rng::SplitMix64;
     use nalgebra::{DMatrix, DVector};
 
     /// A block-sparse SPD matrix (a chain, a dense corner, a few far couplings) solved
@@ -188,13 +197,8 @@ mod tests {
         let mut slots: Vec<(usize, usize)> = (0..blocks).map(|b| (b, b)).collect();
         slots.extend((1..blocks).map(|b| (b, b - 1)));
         slots.extend([(3, 0), (4, 0), (4, 1), (13, 2), (12, 5), (9, 3)]);
-        let mut state = 7u64;
-        let mut random = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rng = SplitMix64::new(7);
+        let mut random = move || rng.range(-0.5, 0.5);
         let values: Vec<Matrix6<f64>> = slots
             .iter()
             .map(|&(r, c)| {
@@ -224,7 +228,7 @@ mod tests {
         let mut solution = rhs.as_slice().to_vec();
         assert!(
             solver
-                .factor_and_solve(&slots, |s| values[s], &mut solution)
+                .factor_and_solve(|s| values[s], &mut solution)
                 .is_ok()
         );
         let error = (DVector::from_vec(solution) - expected).amax();

@@ -60,9 +60,6 @@ pub(crate) struct ReducedSystem {
     plane_parallel_slot: Vec<usize>,
     plane_perpendicular_slot: Vec<usize>,
     factorization: Option<BlockCholesky>,
-    /// The block count and slots `factorization` was analysed for.
-    analysed_blocks: usize,
-    analysed_slots: Vec<(usize, usize)>,
     slot_values: Vec<Matrix6<f64>>,
     rhs: Vec<f64>,
     point_inverse: Vec<Matrix3<f64>>,
@@ -355,10 +352,8 @@ impl ReducedSystem {
 
         // The second pass, and often the next keyframe's BA, keeps the pattern: its
         // symbolic analysis (the ordering) is then still valid.
-        if self.factorization.is_none()
-            || self.analysed_blocks != self.blocks
-            || self.analysed_slots != self.slots
-        {
+        let kept = (self.factorization.as_ref()).is_some_and(|f| f.is_for(&self.slots));
+        if !kept {
             self.factorization =
                 BlockCholesky::analyse(self.blocks, &self.slots).map_err(|reason| {
                     BaError::Solver {
@@ -366,8 +361,6 @@ impl ReducedSystem {
                         reason,
                     }
                 })?;
-            self.analysed_slots.clone_from(&self.slots);
-            self.analysed_blocks = self.blocks;
         }
         Ok(())
     }
@@ -638,7 +631,7 @@ impl ReducedSystem {
             return Ok(());
         };
         let values = &self.slot_values;
-        f.factor_and_solve(&self.slots, |slot| values[slot], &mut self.rhs)
+        f.factor_and_solve(|slot| values[slot], &mut self.rhs)
     }
 
     fn reduced_step(&self, block: usize) -> Vector6<f64> {

@@ -125,7 +125,7 @@ impl NormalSystem {
             }
             value
         };
-        f.factor_and_solve(slots, damped, &mut self.step)?;
+        f.factor_and_solve(damped, &mut self.step)?;
         let mut predicted = 0.0;
         for b in 0..self.blocks() {
             let h = &self.h[b];
