@@ -94,6 +94,24 @@ pub fn plane_observation(
     }
 }
 
+/// The observation of `map_plane` by the frame plane `seen` in tracking, where the map
+/// plane is a constant: their difference carries the noise of both, the frame's and the
+/// fused estimate's, taken as `n` observations as noisy as the frame's (`n` the
+/// keyframes that see it): `sigma^2 (1 + 1/n)`. In the local BA the plane is a
+/// variable, and each observation keeps its own noise ([`plane_observation`]).
+pub fn tracking_observation(
+    config: &PlaneTrackingConfig,
+    seen: &Plane,
+    map_plane: &MapPlane,
+) -> PlaneObservation {
+    let mut observation = plane_observation(config, seen, map_plane);
+    let fused = map_plane.observations.len().max(1) as f64;
+    let share = fused / (fused + 1.0);
+    observation.inv_sigma2_normal *= share;
+    observation.inv_sigma2_offset *= share;
+    observation
+}
+
 /// Pairs frame planes with map planes, with reusable buffers.
 #[derive(Debug, Default)]
 pub struct PlaneAssociator {
@@ -148,7 +166,7 @@ impl PlaneAssociator {
             };
             self.pairs.push((i, id));
             self.observations
-                .push(plane_observation(config, plane, map_plane));
+                .push(tracking_observation(config, plane, map_plane));
         }
         (&self.observations, &self.pairs)
     }
@@ -190,5 +208,26 @@ mod tests {
         };
         let (none, _) = associator.associate(&tight, &planes, &Isometry3::identity(), &map);
         assert!(none.is_empty());
+    }
+
+    #[test]
+    fn a_map_plane_seen_by_fewer_keyframes_weighs_less_in_tracking() {
+        let (mut map, kf) = crate::testing::plane_map(&CORNER);
+        let config = PlaneTrackingConfig::default();
+        let seen = &planes_of(&Isometry3::identity(), &CORNER)[0];
+        let id = map.planes().ids().next().expect("a plane");
+        let own = |map: &Map| plane_observation(&config, seen, map.plane(id).expect("plane"));
+        let tracked =
+            |map: &Map| tracking_observation(&config, seen, map.plane(id).expect("plane"));
+        // One keyframe: the difference of two equally noisy planes, half the weight.
+        assert_eq!(map.plane(id).expect("plane").observations.len(), 1);
+        let ratio = tracked(&map).inv_sigma2_offset / own(&map).inv_sigma2_offset;
+        assert!((ratio - 0.5).abs() < 1e-12, "{ratio}");
+        // Three keyframes: the fused plane's variance is a third of one, 3/4 of the weight.
+        let plane = map.plane_mut(id).expect("plane");
+        plane.observations.push((kf, 7));
+        plane.observations.push((kf, 8));
+        let ratio = tracked(&map).inv_sigma2_normal / own(&map).inv_sigma2_normal;
+        assert!((ratio - 0.75).abs() < 1e-12, "{ratio}");
     }
 }
