@@ -12,6 +12,12 @@
 # Sequences are rendered once into target/low-texture/ (WORK=DIR elsewhere); GFSVO=PATH
 # runs another binary; delete the folder after changing `gfsvo synth` (it renders only
 # what is missing). Not run by CI: about 10 s per sequence on two cores.
+#
+# EXTRA='TOML' is appended to each run's config (a table other than `[tracking]` and
+# `[tracking.depth]`, which the config already has), and the runs go to runs/NAME with
+# RUNS=NAME (default: the column). Bare-wall sequences (slow 4, slow 5) turn on small
+# changes: compare a change over a few perturbations, e.g.
+#   EXTRA=$'[tracking.planes]\nnormal_sigma_deg = 0.99' RUNS=all-0.99 tests/bench/low_texture.sh all
 set -euo pipefail
 
 column=${1:-all}
@@ -43,9 +49,9 @@ for traj in slow fast rotation; do
             "$gfsvo" synth --scene low-texture --traj "$traj" --frames 120 --seed "$seed" \
                 --out "$sequence" --log warn >/dev/null
         fi
-        out=$work/runs/$column/$name
+        out=$work/runs/${RUNS:-$column}/$name
         mkdir -p "$out"
-        { cat "$sequence/synthetic.toml"; printf '\n%s\n' "$switches"; } >"$out/config.toml"
+        { cat "$sequence/synthetic.toml"; printf '\n%s\n\n%s\n' "$switches" "${EXTRA:-}"; } >"$out/config.toml"
         "$gfsvo" run "$sequence" --mode inline --config "$out/config.toml" --out "$out" \
             --log warn >"$out/log.txt" 2>&1 || true
         ate=$(grep -m1 -o 'ATE RMSE [0-9.]*' "$out/log.txt" | awk '{print $3 * 1000}' || true)
