@@ -78,7 +78,8 @@ pub fn self_information(config: &PlaneTrackingConfig, planes: &[Plane]) -> Matri
     h
 }
 
-/// The observation of `map_plane` by the frame plane `seen`, weighed by its noise.
+/// The observation of `map_plane` by the frame plane `seen`, weighed by the frame
+/// plane's noise alone: the local BA's, where the map plane is a variable.
 pub fn plane_observation(
     config: &PlaneTrackingConfig,
     seen: &Plane,
