@@ -100,7 +100,7 @@ pub fn plane_observation(
 /// fused estimate's, taken as `n` observations as noisy as the frame's (`n` the
 /// keyframes that see it): `sigma^2 (1 + 1/n)`. In the local BA the plane is a
 /// variable, and each observation keeps its own noise ([`plane_observation`]).
-pub fn tracking_observation(
+fn tracking_observation(
     config: &PlaneTrackingConfig,
     seen: &Plane,
     map_plane: &MapPlane,
