@@ -8,9 +8,10 @@
 //! when the keyframe's depth was not kept (a keyframe made of an earlier frame than the
 //! last, as in the realtime pipeline).
 //!
-//! Each sampled node `q` of the frame's [`DepthGrid`] is moved into the last frame with
-//! the current estimate, projected, and paired with the last frame's node at that pixel
-//! when they are close and their normals agree. The distance is weighed with the
+//! Each sampled node `q` of the frame's [`DepthGrid`] is moved into the reference with
+//! the current estimate, projected, and paired with the reference's surface at that
+//! pixel (its four nodes around it blended, [`DepthGrid::surface_at_pixel`]) when they
+//! are close and their normals agree. The distance is weighed with the
 //! Kinect depth noise of both ends, `sigma_z(z) = 0.0012 + 0.0019 (z - 0.4)^2` m
 //! (Nguyen, Izadi and Lovell, 3DIMPVT 2012), averaged over a node's block where the
 //! sensor's noise is independent from pixel to pixel
@@ -194,8 +195,12 @@ pub struct DepthAssociator {
     /// Per pair, the sensor's and the association's variance and the squared
     /// tangential offset of the two nodes (reused).
     variances: Vec<(f64, f64)>,
-    /// Per pair, the squared angle between the two normals, rad^2 (reused).
+    /// Per pair, the squared angle between the two normals, rad^2, scaled to two
+    /// single nodes' normals (reused).
     angles2: Vec<f64>,
+    /// Per pair, the reference normal's noise variance as a share of one node's (a
+    /// blend of nodes averages their noise; reused).
+    normal_shares: Vec<f64>,
     /// Variance of one node normal's tilt along a tangent direction, rad^2, from the
     /// angles between the last pass's paired normals.
     normal_variance: f64,
@@ -222,6 +227,7 @@ impl DepthAssociator {
         self.observations.clear();
         self.variances.clear();
         self.angles2.clear();
+        self.normal_shares.clear();
         self.source_nodes = 0;
         let world_from_reference = reference_from_world.inverse();
         let reference_from_current = reference_from_world * current_from_world.inverse();
@@ -238,7 +244,9 @@ impl DepthAssociator {
                 let Some(uv) = camera.project(&in_reference) else {
                     continue;
                 };
-                let Some((s, n)) = reference.at_pixel(uv.x, uv.y) else {
+                let Some((s, n, share)) =
+                    reference.surface_at_pixel(uv.x, uv.y, min_cos, max_distance_m)
+                else {
                     continue;
                 };
                 // Along the normal within the gate; across it, within the gate plus a
@@ -252,7 +260,11 @@ impl DepthAssociator {
                 {
                     continue;
                 }
-                self.angles2.push(cos.clamp(-1.0, 1.0).acos().powi(2));
+                // The frame's node and the reference's surface tilt with variances v and
+                // share * v: their angle scaled as between two nodes.
+                self.angles2
+                    .push(cos.clamp(-1.0, 1.0).acos().powi(2) * 2.0 / (1.0 + share));
+                self.normal_shares.push(share);
                 // The sensor noise of both ends, and the pass's association uncertainty:
                 // a coarse pass pairs points up to its gate apart, and a tight chi-square
                 // test would reject the only pairs of a weakly seen direction.
@@ -279,8 +291,13 @@ impl DepthAssociator {
         } else {
             0.0
         };
-        for (o, (sigma2, tangential2)) in self.observations.iter_mut().zip(&self.variances) {
-            o.inv_sigma2 = 1.0 / (sigma2 + tangential2 * tilt_variance);
+        for ((o, (sigma2, tangential2)), share) in self
+            .observations
+            .iter_mut()
+            .zip(&self.variances)
+            .zip(&self.normal_shares)
+        {
+            o.inv_sigma2 = 1.0 / (sigma2 + tangential2 * tilt_variance * share);
         }
         &self.observations
     }
@@ -300,10 +317,10 @@ impl DepthAssociator {
     /// edge). Translation block only, `sum w sigma_n^2 (I - n n^T)`.
     pub fn normal_noise_information(&self, camera_from_world: &Isometry3<f64>) -> Matrix6<f64> {
         let mut h = Matrix6::zeros();
-        for o in &self.observations {
+        for (o, share) in self.observations.iter().zip(&self.normal_shares) {
             let n = camera_from_world.rotation * o.normal_in_world;
             let tangent = nalgebra::Matrix3::identity() - n * n.transpose();
-            let block = tangent * (o.inv_sigma2 * self.normal_variance);
+            let block = tangent * (o.inv_sigma2 * self.normal_variance * share);
             let mut translation = h.fixed_view_mut::<3, 3>(0, 0);
             translation += block;
         }
@@ -331,6 +348,7 @@ fn tangent_variance_from_angles(angles2: &mut [f64]) -> f64 {
 mod tests {
     use super::*;
     use crate::testing::{CORNER, planes_depth};
+    use nalgebra::Vector3;
 
     /// A grid of the plane z = `depth` seen from the identity, normals towards the
     /// camera.
@@ -447,7 +465,15 @@ mod tests {
     fn an_averaged_node_is_weighed_with_its_normals_tilt_across_the_pair() {
         let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
         let config = DepthAlignmentConfig::default();
-        let reference = wall(&camera, 2.0);
+        // Every third column of the wall, the rest holes: no four nodes around a pixel
+        // to blend, each pair is with the node at its pixel.
+        let mut reference = wall(&camera, 2.0);
+        let width = reference.width as usize;
+        for (k, p) in reference.points.iter_mut().enumerate() {
+            if k % width % 3 != 0 {
+                *p = [0.0; 3];
+            }
+        }
         // The frame 2.1 cm to the side (its nodes fall between the reference's), every
         // normal tilted by 0.2 rad: read as a variance of 0.2^2 / (4 ln 2) per tangent
         // component.
@@ -602,6 +628,59 @@ mod tests {
             overlap,
             &current
         ));
+    }
+
+    #[test]
+    fn noisy_normals_do_not_pull_a_frame_onto_the_reference_nodes() {
+        // The floor and a wall 4 m ahead: their geometry leaves x free, so only the
+        // normals' noise acts along it. Paired with the node at each pixel, that noise
+        // pulled the frame the whole 2 cm back onto the reference's nodes.
+        const WALL_AND_FLOOR: [([f64; 3], f64); 2] =
+            [([0.0, 1.0, 0.0], 1.0), ([0.0, 0.0, 1.0], 4.0)];
+        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let config = DepthAlignmentConfig::default();
+        let reference_pose = Isometry3::identity();
+        let mut reference = planes_depth(&camera, &reference_pose, &WALL_AND_FLOOR);
+        // Each reference normal tilted by up to 0.05 rad (a fixed pseudo-random
+        // pattern), as block normals of a noisy sensor are.
+        for (k, n) in reference.normals.iter_mut().enumerate() {
+            let k = k as f32;
+            let tilt = Vector3::new(0.05 * (12.99 * k).sin(), 0.05 * (78.23 * k).sin(), 0.0);
+            *n = (Vector3::from(*n) + tilt).normalize().into();
+        }
+        // The frame 2 cm to the side (a third of a node on the wall), started there.
+        let truth = Isometry3::translation(-0.02, 0.0, 0.0);
+        let current = planes_depth(&camera, &truth, &WALL_AND_FLOOR);
+        let mut pose = truth;
+        let mut associator = DepthAssociator::default();
+        let mut result = gfs_optim::PoseResult::default();
+        for gate in &config.max_distance_m {
+            let pairs = associator.associate(
+                &config,
+                &camera,
+                &current,
+                &pose,
+                &reference,
+                &reference_pose,
+                *gate,
+                1.0,
+            );
+            gfs_optim::optimize_pose_with_depth(
+                &camera,
+                &pose,
+                &[],
+                &[],
+                gfs_optim::SurfaceObservations {
+                    depth: pairs,
+                    ..gfs_optim::SurfaceObservations::default()
+                },
+                &gfs_optim::PoseOptimizerConfig::default(),
+                &mut result,
+            );
+            pose = result.camera_from_world;
+        }
+        let error = (pose * truth.inverse()).translation.vector;
+        assert!(error.norm() < 0.002, "{error}");
     }
 
     #[test]

@@ -146,6 +146,66 @@ impl DepthGrid {
         self.node(j as usize * self.width as usize + i as usize)
     }
 
+    /// The surface at pixel `(u, v)`: the four nodes around it blended bilinearly when
+    /// they are one surface (each normal within `min_cos` of the first's, each point
+    /// within `max_step_m` of the first's plane), else the node at the pixel. The node
+    /// at the pixel alone would leave up to half a node between a paired point and its
+    /// reference along the surface (15 mm at 2 m), and through the normals' noise that
+    /// offset pulls the pose towards where the frame's nodes fall on the reference's,
+    /// as cell shifts pulled the photometric term ([`Self::smooth_intensity`]). The third
+    /// value is the surface normal's noise variance as a share of one node's: the sum
+    /// of the squared weights of the nodes blended (1 at a node).
+    pub fn surface_at_pixel(
+        &self,
+        u: f64,
+        v: f64,
+        min_cos: f64,
+        max_step_m: f64,
+    ) -> Option<(Vector3<f64>, Vector3<f64>, f64)> {
+        let at_node = |(p, n)| (p, n, 1.0);
+        let s = f64::from(self.stride_px.max(1));
+        // Node (i, j)'s point is its block's mean: it stands at the block's centre.
+        let (x, y) = (u / s - 0.5, v / s - 0.5);
+        let (i, j) = (x.floor(), y.floor());
+        if i < 0.0
+            || j < 0.0
+            || i + 1.0 >= f64::from(self.width)
+            || j + 1.0 >= f64::from(self.height)
+        {
+            return self.at_pixel(u, v).map(at_node);
+        }
+        let width = self.width as usize;
+        let k = j as usize * width + i as usize;
+        let (Some(a), Some(b), Some(c), Some(d)) = (
+            self.node(k),
+            self.node(k + 1),
+            self.node(k + width),
+            self.node(k + width + 1),
+        ) else {
+            return self.at_pixel(u, v).map(at_node);
+        };
+        let one_surface = [&b, &c, &d]
+            .iter()
+            .all(|(p, n)| n.dot(&a.1) >= min_cos && a.1.dot(&(p - a.0)).abs() <= max_step_m);
+        if !one_surface {
+            return self.at_pixel(u, v).map(at_node);
+        }
+        let (fx, fy) = (x - i, y - j);
+        let weights = [
+            (1.0 - fx) * (1.0 - fy),
+            fx * (1.0 - fy),
+            (1.0 - fx) * fy,
+            fx * fy,
+        ];
+        let (mut point, mut normal) = (Vector3::zeros(), Vector3::zeros());
+        for ((p, n), w) in [a, b, c, d].iter().zip(weights) {
+            point += p * w;
+            normal += n * w;
+        }
+        let share = weights.iter().map(|w| w * w).sum();
+        Some((point, normal.normalize(), share))
+    }
+
     /// Node `k` when it has a point and a normal.
     pub fn node(&self, k: usize) -> Option<(Vector3<f64>, Vector3<f64>)> {
         let (p, n) = (self.points.get(k)?, self.normals.get(k)?);
@@ -206,5 +266,45 @@ mod tests {
         // A cell that does not divide the node stride samples nothing.
         grid.sample_intensity(&gray.view(), 3);
         assert!(grid.intensity_grid().is_none());
+    }
+
+    #[test]
+    fn the_surface_between_nodes_is_blended_and_a_step_is_not() {
+        use crate::testing::{camera, planes_depth};
+        use nalgebra::{Isometry3, Point3};
+        let camera = camera();
+        // A wall 2 m ahead, turned 20 degrees about the vertical.
+        let normal = [20f64.to_radians().sin(), 0.0, 20f64.to_radians().cos()];
+        let mut grid = planes_depth(&camera, &Isometry3::identity(), &[(normal, 2.0)]);
+        let min_cos = 30f64.to_radians().cos();
+        // A pixel at a corner of four nodes: the blend is on the wall where the pixel
+        // looks, the node at the pixel is half a node (4 px) away along each axis.
+        let (u, v) = (8.0 * 30.0, 8.0 * 20.0);
+        let seen_at = |p: &Vector3<f64>| camera.project(&Point3::from(*p)).expect("ahead");
+        let (blended, n, share) = grid.surface_at_pixel(u, v, min_cos, 0.015).expect("wall");
+        // At the corner of four nodes, each weighs a quarter: a quarter of the variance.
+        assert!((share - 0.25).abs() < 1e-9, "{share}");
+        let uv = seen_at(&blended);
+        assert!((uv.x - u).abs() < 0.05 && (uv.y - v).abs() < 0.05, "{uv}");
+        assert!((Vector3::from(normal).dot(&blended) - 2.0).abs() < 1e-4);
+        assert!(n.dot(&-Vector3::from(normal)) > 0.9999, "{n}");
+        let (node, _) = grid.at_pixel(u, v).expect("wall");
+        let uv = seen_at(&node);
+        assert!(
+            (uv.x - (u + 4.0)).abs() < 0.05 && (uv.y - (v + 4.0)).abs() < 0.05,
+            "{uv}"
+        );
+        // The columns from 30 on stand 5 cm closer: a step, not one surface.
+        for j in 0..grid.height as usize {
+            for i in 30..grid.width as usize {
+                let p = &mut grid.points[j * grid.width as usize + i];
+                let scale = (p[2] - 0.05) / p[2];
+                p.iter_mut().for_each(|c| *c *= scale);
+            }
+        }
+        assert_eq!(
+            grid.surface_at_pixel(u, v, min_cos, 0.015),
+            grid.at_pixel(u, v).map(|(p, n)| (p, n, 1.0))
+        );
     }
 }

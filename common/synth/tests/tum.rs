@@ -104,11 +104,11 @@ fn write_tum_round_trips_images_depth_lists_and_ground_truth() {
         (cam.fx, cam.cx, 64)
     );
     assert_eq!(marker.depth["scale"].as_float(), Some(5000.0));
-    // The rendered depth noise is independent from pixel to pixel.
-    assert_eq!(
-        marker.tracking["depth"]["independent_pixels_per_node"].as_float(),
-        Some(16.0)
-    );
+    // The rendered noise is independent from pixel to pixel: every node is sampled.
+    let depth = &marker.tracking["depth"];
+    assert_eq!(depth["source_step"].as_integer(), Some(1));
+    assert_eq!(depth["independent_pixels_per_node"].as_float(), Some(4.0));
+    assert_eq!(depth["photometric_sigma"].as_float(), Some(0.7));
     fs::remove_dir_all(&dir).unwrap();
 }
 
