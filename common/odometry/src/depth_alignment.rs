@@ -200,15 +200,13 @@ pub fn needs_new_reference(
 #[derive(Debug, Default)]
 pub struct DepthAssociator {
     observations: Vec<DepthObservation>,
-    /// Per pair, the sensor's and the association's variance and the squared
-    /// tangential offset of the two nodes (reused).
-    variances: Vec<(f64, f64)>,
+    /// Per pair, the sensor's and the association's variance, the squared tangential
+    /// offset of the two nodes, and the reference normal's noise variance as a share of
+    /// one node's (a blend of nodes averages their noise; reused).
+    variances: Vec<(f64, f64, f64)>,
     /// Per pair, the squared angle between the two normals, rad^2, scaled to two
     /// single nodes' normals (reused).
     angles2: Vec<f64>,
-    /// Per pair, the reference normal's noise variance as a share of one node's (a
-    /// blend of nodes averages their noise; reused).
-    normal_shares: Vec<f64>,
     /// Variance of one node normal's tilt along a tangent direction, rad^2, from the
     /// angles between the last pass's paired normals.
     normal_variance: f64,
@@ -235,7 +233,6 @@ impl DepthAssociator {
         self.observations.clear();
         self.variances.clear();
         self.angles2.clear();
-        self.normal_shares.clear();
         self.source_nodes = 0;
         let world_from_reference = reference_from_world.inverse();
         let reference_from_current = reference_from_world * current_from_world.inverse();
@@ -272,7 +269,6 @@ impl DepthAssociator {
                 // share * v: their angle scaled as between two nodes.
                 self.angles2
                     .push(cos.clamp(-1.0, 1.0).acos().powi(2) * 2.0 / (1.0 + share));
-                self.normal_shares.push(share);
                 // The sensor noise of both ends, and the pass's association uncertainty:
                 // a coarse pass pairs points up to its gate apart, and a tight chi-square
                 // test would reject the only pairs of a weakly seen direction.
@@ -280,7 +276,8 @@ impl DepthAssociator {
                     * (kinect_depth_sigma(q.z).powi(2) + kinect_depth_sigma(s.z).powi(2))
                     + (max_distance_m / 3.0).powi(2);
                 let tangential = offset - n * n.dot(&offset);
-                self.variances.push((sigma2, tangential.norm_squared()));
+                self.variances
+                    .push((sigma2, tangential.norm_squared(), share));
                 self.observations.push(DepthObservation {
                     point_in_camera: q,
                     surface_in_world: (world_from_reference * Point3::from(s)).coords,
@@ -299,12 +296,7 @@ impl DepthAssociator {
         } else {
             0.0
         };
-        for ((o, (sigma2, tangential2)), share) in self
-            .observations
-            .iter_mut()
-            .zip(&self.variances)
-            .zip(&self.normal_shares)
-        {
+        for (o, (sigma2, tangential2, share)) in self.observations.iter_mut().zip(&self.variances) {
             o.inv_sigma2 = 1.0 / (sigma2 + tangential2 * tilt_variance * share);
         }
         &self.observations
@@ -325,7 +317,7 @@ impl DepthAssociator {
     /// edge). Translation block only, `sum w sigma_n^2 (I - n n^T)`.
     pub fn normal_noise_information(&self, camera_from_world: &Isometry3<f64>) -> Matrix6<f64> {
         let mut h = Matrix6::zeros();
-        for (o, share) in self.observations.iter().zip(&self.normal_shares) {
+        for (o, (_, _, share)) in self.observations.iter().zip(&self.variances) {
             let n = camera_from_world.rotation * o.normal_in_world;
             let tangent = nalgebra::Matrix3::identity() - n * n.transpose();
             let block = tangent * (o.inv_sigma2 * self.normal_variance * share);
@@ -661,7 +653,6 @@ mod tests {
         let current = planes_depth(&camera, &truth, &WALL_AND_FLOOR);
         let mut pose = truth;
         let mut associator = DepthAssociator::default();
-        let mut result = gfs_optim::PoseResult::default();
         for gate in &config.max_distance_m {
             let pairs = associator.associate(
                 &config,
@@ -673,19 +664,7 @@ mod tests {
                 *gate,
                 1.0,
             );
-            gfs_optim::optimize_pose_with_depth(
-                &camera,
-                &pose,
-                &[],
-                &[],
-                gfs_optim::SurfaceObservations {
-                    depth: pairs,
-                    ..gfs_optim::SurfaceObservations::default()
-                },
-                &gfs_optim::PoseOptimizerConfig::default(),
-                &mut result,
-            );
-            pose = result.camera_from_world;
+            pose = optimise_on_depth(&camera, &pose, pairs).camera_from_world;
         }
         let error = (pose * truth.inverse()).translation.vector;
         assert!(error.norm() < 0.002, "{error}");
