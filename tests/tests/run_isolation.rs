@@ -4,6 +4,10 @@
 //! supervisor's files are removed by `gfsvo clean`, a stopped `gfsvo record` and a run
 //! stopped right after it started leave nothing. Every check looks at its own run id
 //! only: other pipelines may run on the machine meanwhile.
+//!
+//! Every run starts by sweeping the machine's dead runs, so the test that leaves a dead
+//! run for `gfsvo clean` holds [`SWEEPS`] exclusively while the other tests of this file
+//! start runs under its shared side.
 
 mod common;
 
@@ -14,7 +18,16 @@ use common::{
 use gfs_ipc::{IpcRun, RunId};
 use std::path::Path;
 use std::process::{Command, Stdio};
+use std::sync::{PoisonError, RwLock, RwLockReadGuard};
 use std::time::{Duration, Instant};
+
+/// Keeps the runs of the other tests (whose start sweeps dead runs) away from the dead
+/// run that `gfsvo clean` must find.
+static SWEEPS: RwLock<()> = RwLock::new(());
+
+fn sweeping() -> RwLockReadGuard<'static, ()> {
+    SWEEPS.read().unwrap_or_else(PoisonError::into_inner)
+}
 
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
@@ -47,6 +60,7 @@ fn await_no_process_of(id: &str) {
 
 #[test]
 fn a_second_run_on_the_same_run_id_or_output_folder_is_refused() {
+    let _sweeps = sweeping();
     let (id, out) = (run_id("own"), out_dir("own"));
     let mut child = start(binaries(), &id, &out, &[]);
     {
@@ -116,6 +130,7 @@ fn a_second_run_on_the_same_run_id_or_output_folder_is_refused() {
 
 #[test]
 fn files_of_a_sigkilled_supervisor_are_removed_by_gfsvo_clean() {
+    let _alone = SWEEPS.write().unwrap_or_else(PoisonError::into_inner);
     let (id, out) = (run_id("kill"), out_dir("kill"));
     let mut child = start(binaries(), &id, &out, &[]);
     {
@@ -127,7 +142,7 @@ fn files_of_a_sigkilled_supervisor_are_removed_by_gfsvo_clean() {
     await_no_process_of(&id);
     let left = leftovers(&id);
     assert!(left > 0, "a SIGKILLed run leaves its files until cleaned");
-    let clean = gfsvo(&["clean"]);
+    let clean = gfsvo(&["clean", "--verbose"]);
     let stdout = text(&clean.stdout);
     assert!(clean.status.success(), "{}", text(&clean.stderr));
     assert!(stdout.contains(&format!("removed run {id}")), "{stdout}");
@@ -150,6 +165,7 @@ fn files_of_a_sigkilled_supervisor_are_removed_by_gfsvo_clean() {
 
 #[test]
 fn a_run_stopped_as_it_starts_leaves_nothing() {
+    let _sweeps = sweeping();
     let (id, out) = (run_id("early"), out_dir("early"));
     let child = start(binaries(), &id, &out, &[]);
     let deadline = Instant::now() + Duration::from_secs(30);
@@ -166,6 +182,7 @@ fn a_run_stopped_as_it_starts_leaves_nothing() {
 
 #[test]
 fn no_frame_to_run_is_refused_before_any_work() {
+    let _sweeps = sweeping();
     let (id, out) = (run_id("zero"), out_dir("zero"));
     let o = gfsvo(&[
         "run",
@@ -188,6 +205,7 @@ fn no_frame_to_run_is_refused_before_any_work() {
 
 #[test]
 fn a_stopped_recorder_leaves_nothing() {
+    let _sweeps = sweeping();
     let (id, out) = (run_id("rec"), out_dir("rec"));
     let mut child = Command::new(binaries().join("gfsvo"))
         .args(["record", "--run-id", &id, "--out"])
