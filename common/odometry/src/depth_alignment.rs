@@ -91,10 +91,16 @@ pub struct DepthAlignmentConfig {
     pub motion_prior_feature_angular_accel_deg_s2: f64,
     /// How fast the camera centre's velocity, which centres the prior, may change, m/s^2:
     /// each frame's step moves the velocity as far as its data placed the frame against
-    /// this (`crate::motion_prior::CentreVelocity`); default 4 (the 24 synthetic
+    /// this (`crate::motion_prior::FilteredVelocity`); default 4 (the 24 synthetic
     /// low-texture sequences with all terms 5.32 -> 4.20 mm against the step from the
     /// last two poses; 12, the prior's own: 5.60 mm).
     pub motion_prior_velocity_accel_m_s2: f64,
+    /// The same for the camera's angular rate, which turns the prior, deg/s^2; 0 = the
+    /// motion model's turn from the last two poses; default 200 (the 24 synthetic
+    /// low-texture sequences with all terms 2.95 -> 2.88 mm, held-out seeds 9-12 8.98 ->
+    /// 5.89 mm, 20 and 10 within 4 mm either way; rotation seed 1's bare-wall frames
+    /// had carried 0.15 degrees of roll a frame; 100 / 400: 3.54 / 2.66 mm, 19 / 20).
+    pub motion_prior_angular_rate_accel_deg_s2: f64,
     /// Pixels of a node's block whose depth noise is independent: on a frame tracked on
     /// features, a node's depth sigma is the pixel's over the square root of this, and
     /// the reference normal's tilt across the pair joins it; default 1 (a structured-
@@ -143,6 +149,7 @@ impl Default for DepthAlignmentConfig {
             motion_prior_angular_accel_deg_s2: 800.0,
             motion_prior_feature_angular_accel_deg_s2: 3200.0,
             motion_prior_velocity_accel_m_s2: 4.0,
+            motion_prior_angular_rate_accel_deg_s2: 200.0,
             independent_pixels_per_node: 1.0,
             renewal_sigma_m: 0.006,
             renewal_overlap: 0.85,

@@ -133,6 +133,10 @@ impl TrackingConfig {
                 "motion_prior_velocity_accel_m_s2",
                 self.depth.motion_prior_velocity_accel_m_s2,
             ),
+            (
+                "motion_prior_angular_rate_accel_deg_s2",
+                self.depth.motion_prior_angular_rate_accel_deg_s2,
+            ),
         ] {
             d.not_below(field, value, 0.0)?;
         }

@@ -120,12 +120,11 @@ impl Tracker {
         true
     }
 
-    /// The frame's prediction as a prior, for a frame tracked on `tracked_on`: its
-    /// rotation the motion model's, its centre where the filtered velocity takes the last
-    /// frame's ([`crate::motion_prior::CentreVelocity`]).
+    /// The frame's prediction as a prior, for a frame tracked on `tracked_on`: where the
+    /// filtered velocity takes the last frame ([`crate::motion_prior::FilteredVelocity`]).
     fn motion_prior(&self, tracked_on: PriorFor) -> Option<PosePrior> {
         let dt = self.predicted_over_s?;
-        let centre = self.centre_velocity.predict(&self.predicted, dt);
+        let centre = self.velocity_filter.predict(&self.predicted, dt);
         motion_prior(&self.config.depth, &centre, dt, tracked_on)
     }
 

@@ -24,7 +24,7 @@ use crate::matching::{
     LineProjectionMatcher, PointProjectionMatcher, ProjectionCandidate, ScalePyramid,
 };
 use crate::motion::MotionModel;
-use crate::motion_prior::CentreVelocity;
+use crate::motion_prior::{FilteredVelocity, VelocityChange};
 use crate::plane_association::PlaneAssociator;
 use crate::pose_solver::{Inliers, PoseSolver};
 use crate::ransac::{Correspondence, RigidRansac};
@@ -100,10 +100,10 @@ pub struct Tracker {
     /// (`motion_prior.rs`) needs both.
     predicted_over_s: Option<f64>,
     /// What the data of the frame being tracked determined of its pose (the normals'
-    /// noise discounted), for the centre's velocity.
+    /// noise discounted), for the filtered velocity.
     tracked_information: Option<nalgebra::Matrix6<f64>>,
-    /// The camera centre's velocity as the frames' data placed them: the prior's centre.
-    centre_velocity: CentreVelocity,
+    /// The camera's velocity as the frames' data placed them: the prior's centre.
+    velocity_filter: FilteredVelocity,
 }
 
 impl Tracker {
@@ -139,7 +139,7 @@ impl Tracker {
             predicted: Isometry3::identity(),
             predicted_over_s: None,
             tracked_information: None,
-            centre_velocity: CentreVelocity::default(),
+            velocity_filter: FilteredVelocity::default(),
             config,
             camera,
         }
@@ -191,13 +191,13 @@ impl Tracker {
         let information = self.tracked_information.take();
         if frame.status == TrackingStatus::Relocalised {
             self.motion.reset_velocity();
-            self.restart_centre_velocity(&frame);
+            self.restart_velocity_filter(&frame);
         } else {
-            self.centre_velocity.update(
+            self.velocity_filter.update(
                 &frame.camera_from_world,
                 frame.features.timestamp,
                 information.as_ref(),
-                self.config.depth.motion_prior_velocity_accel_m_s2,
+                VelocityChange::from_config(&self.config.depth),
             );
         }
         self.last = Some(frame);
@@ -209,7 +209,7 @@ impl Tracker {
         self.motion = MotionModel::default();
         self.motion
             .update(&frame.camera_from_world, frame.features.timestamp, true);
-        self.restart_centre_velocity(&frame);
+        self.restart_velocity_filter(&frame);
         self.last = Some(frame);
     }
 
@@ -227,7 +227,7 @@ impl Tracker {
     /// (`new_from_old`, a loop correction), so that tracking goes on in the corrected map.
     pub fn shift_world(&mut self, new_from_old: &Isometry3<f64>) {
         self.motion.shift_world(new_from_old);
-        self.centre_velocity.shift_world(new_from_old);
+        self.velocity_filter.shift_world(new_from_old);
         if let Some(last) = &mut self.last {
             last.camera_from_world *= new_from_old.inverse();
         }
@@ -235,20 +235,20 @@ impl Tracker {
 
     /// Starts the centre's velocity afresh at `frame` (no velocity: the motion model's
     /// step centres the prior until two frames have been tracked).
-    fn restart_centre_velocity(&mut self, frame: &TrackedFrame) {
-        self.centre_velocity = CentreVelocity::default();
-        self.centre_velocity.update(
+    fn restart_velocity_filter(&mut self, frame: &TrackedFrame) {
+        self.velocity_filter = FilteredVelocity::default();
+        self.velocity_filter.update(
             &frame.camera_from_world,
             frame.features.timestamp,
             None,
-            self.config.depth.motion_prior_velocity_accel_m_s2,
+            VelocityChange::from_config(&self.config.depth),
         );
     }
 
     /// Resumes from a checkpoint: the motion model and the last frame as they were.
     pub fn restore(&mut self, motion: MotionModel, last: TrackedFrame) {
         self.motion = motion;
-        self.restart_centre_velocity(&last);
+        self.restart_velocity_filter(&last);
         self.last = Some(last);
     }
 
