@@ -124,8 +124,8 @@ impl Tracker {
     /// filtered velocity takes the last frame ([`crate::motion_prior::FilteredVelocity`]).
     fn motion_prior(&self, tracked_on: PriorFor) -> Option<PosePrior> {
         let dt = self.predicted_over_s?;
-        let centre = self.velocity_filter.predict(&self.predicted, dt);
-        motion_prior(&self.config.depth, &centre, dt, tracked_on)
+        let predicted = self.velocity_filter.predict(&self.predicted, dt);
+        motion_prior(&self.config.depth, &predicted, dt, tracked_on)
     }
 
     /// Keeps the depth of the reference keyframe: when the reference changed to the
