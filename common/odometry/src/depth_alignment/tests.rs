@@ -6,30 +6,10 @@ use crate::testing::{CORNER, planes_depth};
 use gfs_core::camera::PinholeCamera;
 use nalgebra::{Point3, Vector3};
 
-/// A grid of the plane z = `depth` seen from the identity, normals towards the
+/// The grid of the plane z = `depth` seen from the identity, normals towards the
 /// camera.
-fn wall(camera: &PinholeCamera, depth: f32) -> DepthGrid {
-    let stride = 8u32;
-    let (w, h) = (camera.width as u32 / stride, camera.height as u32 / stride);
-    let mut grid = DepthGrid {
-        stride_px: stride,
-        width: w,
-        height: h,
-        ..DepthGrid::default()
-    };
-    for j in 0..h {
-        for i in 0..w {
-            let (u, v) = (
-                (i * stride + stride / 2) as f64,
-                (j * stride + stride / 2) as f64,
-            );
-            let x = (u - camera.cx) / camera.fx * f64::from(depth);
-            let y = (v - camera.cy) / camera.fy * f64::from(depth);
-            grid.points.push([x as f32, y as f32, depth]);
-            grid.normals.push([0.0, 0.0, -1.0]);
-        }
-    }
-    grid
+fn wall(camera: &PinholeCamera, depth: f64) -> DepthGrid {
+    planes_depth(camera, &Isometry3::identity(), &[([0.0, 0.0, 1.0], depth)])
 }
 
 #[test]
