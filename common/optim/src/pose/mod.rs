@@ -57,7 +57,8 @@ pub fn optimize_pose(
 
 /// [`optimize_pose`] with depth point-to-plane and plane-to-plane observations as
 /// further residual blocks, robustified and outlier-rejected like the others
-/// (`depth_chi2`, `plane_chi2`).
+/// (`depth_chi2`, `plane_chi2`). When every observation ends an outlier, the pose is the
+/// initial one.
 pub fn optimize_pose_with_depth(
     camera: &PinholeCamera,
     initial_camera_from_world: &Isometry3<f64>,
@@ -90,6 +91,11 @@ pub fn optimize_pose_with_depth(
         result.iterations += run.iterations;
         result.converged = run.converged;
         problem.classify(&pose, Gate::ChiSquare, result);
+    }
+    // What moved the pose was rejected, all of it: a lone wrong pair (a frame plane
+    // paired with the wrong map plane) would otherwise leave its pull in the pose.
+    if result.inlier_count() == 0 {
+        pose = *initial_camera_from_world;
     }
     result.converged &= result.inlier_count() > 0;
     result.camera_from_world = pose;
