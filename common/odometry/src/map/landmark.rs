@@ -55,17 +55,66 @@ pub trait LandmarkId:
     type Landmark: Landmark<Id = Self>;
 }
 
-impl LandmarkId for MapPointId {
-    type Landmark = super::MapPoint;
+/// Implements [`Landmark`] and [`LandmarkId`] for a landmark struct whose fields
+/// `observations`, `first_kf`, `visible` and `found` hold its bookkeeping, whose
+/// keyframe slots are `KeyFrame::$slots` and whose store is `Map::$store`.
+macro_rules! landmark_kind {
+    ($landmark:ident, $id:ident, $slots:ident, $store:ident) => {
+        impl LandmarkId for $id {
+            type Landmark = super::$landmark;
+        }
+
+        impl Landmark for super::$landmark {
+            type Id = $id;
+
+            fn id(n: u64) -> $id {
+                $id(n)
+            }
+
+            fn observations(&self) -> &[(KeyFrameId, u32)] {
+                &self.observations
+            }
+
+            fn observations_mut(&mut self) -> &mut Vec<(KeyFrameId, u32)> {
+                &mut self.observations
+            }
+
+            fn first_kf(&self) -> KeyFrameId {
+                self.first_kf
+            }
+
+            fn set_first_kf(&mut self, kf: KeyFrameId) {
+                self.first_kf = kf;
+            }
+
+            fn sightings_mut(&mut self) -> (&mut u32, &mut u32) {
+                (&mut self.visible, &mut self.found)
+            }
+
+            fn slots(keyframe: &KeyFrame) -> &[Option<$id>] {
+                &keyframe.$slots
+            }
+
+            fn slots_mut(keyframe: &mut KeyFrame) -> &mut [Option<$id>] {
+                &mut keyframe.$slots
+            }
+
+            fn store_mut(
+                map: &mut super::Map,
+            ) -> (&mut IdMap<KeyFrameId, KeyFrame>, &mut Store<Self>) {
+                (&mut map.keyframes, &mut map.$store)
+            }
+
+            fn store(map: &super::Map) -> &Store<Self> {
+                &map.$store
+            }
+        }
+    };
 }
 
-impl LandmarkId for MapLineId {
-    type Landmark = super::MapLine;
-}
-
-impl LandmarkId for MapPlaneId {
-    type Landmark = super::MapPlane;
-}
+landmark_kind!(MapPoint, MapPointId, point_ids, points);
+landmark_kind!(MapLine, MapLineId, line_ids, lines);
+landmark_kind!(MapPlane, MapPlaneId, plane_ids, planes);
 
 /// The landmarks of one kind, keyed by id, and the next id to give.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]

@@ -1,9 +1,9 @@
 //! A map line: a 3D segment in the world seen by one or more keyframes.
 
-use super::landmark::{Described, Landmark, Store};
-use super::{IdMap, KeyFrame, Map};
+use super::KeyFrame;
+use super::landmark::Described;
 use crate::frame::Descriptor;
-use gfs_core::ids::{KeyFrameId, MapLineId};
+use gfs_core::ids::KeyFrameId;
 use nalgebra::{Point3, Vector3};
 
 /// A landmark segment with its observations and its Manhattan axis.
@@ -52,50 +52,6 @@ impl MapLine {
         } else {
             f64::from(self.found) / f64::from(self.visible)
         }
-    }
-}
-
-impl Landmark for MapLine {
-    type Id = MapLineId;
-
-    fn id(n: u64) -> MapLineId {
-        MapLineId(n)
-    }
-
-    fn observations(&self) -> &[(KeyFrameId, u32)] {
-        &self.observations
-    }
-
-    fn observations_mut(&mut self) -> &mut Vec<(KeyFrameId, u32)> {
-        &mut self.observations
-    }
-
-    fn first_kf(&self) -> KeyFrameId {
-        self.first_kf
-    }
-
-    fn set_first_kf(&mut self, kf: KeyFrameId) {
-        self.first_kf = kf;
-    }
-
-    fn sightings_mut(&mut self) -> (&mut u32, &mut u32) {
-        (&mut self.visible, &mut self.found)
-    }
-
-    fn slots(keyframe: &KeyFrame) -> &[Option<MapLineId>] {
-        &keyframe.line_ids
-    }
-
-    fn slots_mut(keyframe: &mut KeyFrame) -> &mut [Option<MapLineId>] {
-        &mut keyframe.line_ids
-    }
-
-    fn store_mut(map: &mut Map) -> (&mut IdMap<KeyFrameId, KeyFrame>, &mut Store<Self>) {
-        (&mut map.keyframes, &mut map.lines)
-    }
-
-    fn store(map: &Map) -> &Store<Self> {
-        &map.lines
     }
 }
 

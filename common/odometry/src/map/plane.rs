@@ -1,9 +1,8 @@
 //! A map plane: an infinite plane of the world (a wall, the floor) seen by one or more
 //! keyframes as one of their BFS planes. Matched by geometry, not by descriptor.
 
-use super::landmark::{Landmark, Store};
-use super::{IdMap, KeyFrame, Map};
-use gfs_core::ids::{KeyFrameId, MapPlaneId};
+use super::Map;
+use gfs_core::ids::KeyFrameId;
 use gfs_planes::Plane;
 use nalgebra::{Isometry3, Vector3};
 
@@ -78,49 +77,5 @@ impl Map {
             p.normal = n;
             p.offset = offset / weight;
         }
-    }
-}
-
-impl Landmark for MapPlane {
-    type Id = MapPlaneId;
-
-    fn id(n: u64) -> MapPlaneId {
-        MapPlaneId(n)
-    }
-
-    fn observations(&self) -> &[(KeyFrameId, u32)] {
-        &self.observations
-    }
-
-    fn observations_mut(&mut self) -> &mut Vec<(KeyFrameId, u32)> {
-        &mut self.observations
-    }
-
-    fn first_kf(&self) -> KeyFrameId {
-        self.first_kf
-    }
-
-    fn set_first_kf(&mut self, kf: KeyFrameId) {
-        self.first_kf = kf;
-    }
-
-    fn sightings_mut(&mut self) -> (&mut u32, &mut u32) {
-        (&mut self.visible, &mut self.found)
-    }
-
-    fn slots(keyframe: &KeyFrame) -> &[Option<MapPlaneId>] {
-        &keyframe.plane_ids
-    }
-
-    fn slots_mut(keyframe: &mut KeyFrame) -> &mut [Option<MapPlaneId>] {
-        &mut keyframe.plane_ids
-    }
-
-    fn store_mut(map: &mut Map) -> (&mut IdMap<KeyFrameId, KeyFrame>, &mut Store<Self>) {
-        (&mut map.keyframes, &mut map.planes)
-    }
-
-    fn store(map: &Map) -> &Store<Self> {
-        &map.planes
     }
 }

@@ -1,9 +1,9 @@
 //! A map point: a 3D point in the world seen by one or more keyframes.
 
-use super::landmark::{Described, Landmark, Store};
-use super::{IdMap, KeyFrame, Map};
+use super::KeyFrame;
+use super::landmark::Described;
 use crate::frame::Descriptor;
-use gfs_core::ids::{KeyFrameId, MapPointId};
+use gfs_core::ids::KeyFrameId;
 use nalgebra::{Point3, Vector3};
 
 /// A landmark point with its observations and the statistics used to cull it.
@@ -46,50 +46,6 @@ impl MapPoint {
         } else {
             f64::from(self.found) / f64::from(self.visible)
         }
-    }
-}
-
-impl Landmark for MapPoint {
-    type Id = MapPointId;
-
-    fn id(n: u64) -> MapPointId {
-        MapPointId(n)
-    }
-
-    fn observations(&self) -> &[(KeyFrameId, u32)] {
-        &self.observations
-    }
-
-    fn observations_mut(&mut self) -> &mut Vec<(KeyFrameId, u32)> {
-        &mut self.observations
-    }
-
-    fn first_kf(&self) -> KeyFrameId {
-        self.first_kf
-    }
-
-    fn set_first_kf(&mut self, kf: KeyFrameId) {
-        self.first_kf = kf;
-    }
-
-    fn sightings_mut(&mut self) -> (&mut u32, &mut u32) {
-        (&mut self.visible, &mut self.found)
-    }
-
-    fn slots(keyframe: &KeyFrame) -> &[Option<MapPointId>] {
-        &keyframe.point_ids
-    }
-
-    fn slots_mut(keyframe: &mut KeyFrame) -> &mut [Option<MapPointId>] {
-        &mut keyframe.point_ids
-    }
-
-    fn store_mut(map: &mut Map) -> (&mut IdMap<KeyFrameId, KeyFrame>, &mut Store<Self>) {
-        (&mut map.keyframes, &mut map.points)
-    }
-
-    fn store(map: &Map) -> &Store<Self> {
-        &map.points
     }
 }
 
