@@ -92,8 +92,8 @@ pub fn optimize_pose_with_depth(
         result.converged = run.converged;
         problem.classify(&pose, Gate::ChiSquare, result);
     }
-    // What moved the pose was rejected, all of it: a lone wrong pair (a frame plane
-    // paired with the wrong map plane) would otherwise leave its pull in the pose.
+    // Every observation that moved the pose was rejected: a lone plane pair that the
+    // prior made fail its test would otherwise leave its pull in the pose.
     if result.inlier_count() == 0 {
         pose = *initial_camera_from_world;
     }

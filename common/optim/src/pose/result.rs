@@ -9,7 +9,8 @@ use super::optimize_pose;
 /// Output of [`optimize_pose`]; reuse one value across frames to keep its buffers.
 #[derive(Clone, Debug, Default)]
 pub struct PoseResult {
-    /// The estimated `camera_from_world` (the last estimate when not converged).
+    /// The estimated `camera_from_world` (the last estimate when not converged, the
+    /// initial one when every observation ended an outlier).
     pub camera_from_world: Isometry3<f64>,
     /// Per point observation (same order as the input): inlier at the final pose.
     pub point_inliers: Vec<bool>,

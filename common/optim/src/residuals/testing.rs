@@ -4,6 +4,11 @@ use gfs_core::camera::PinholeCamera;
 use gfs_core::se3::exp;
 use nalgebra::{Isometry3, Point3, SMatrix, SVector, Vector3, Vector6};
 
+/// A VGA Kinect-like pinhole camera (TUM's nominal intrinsics).
+pub(crate) fn vga_camera() -> PinholeCamera {
+    PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480)
+}
+
 /// Deterministic random numbers for fixtures ([`gfs_core::rng::SplitMix64`]).
 pub(crate) struct SplitMix64(gfs_core::rng::SplitMix64);
 

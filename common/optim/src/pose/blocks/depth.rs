@@ -91,7 +91,6 @@ mod tests {
         DepthObservation, PoseOptimizerConfig, PoseResult, SurfaceObservations,
         optimize_pose_with_depth,
     };
-    use gfs_core::camera::PinholeCamera;
     use gfs_core::se3::retract;
     use nalgebra::{Vector3, Vector6};
 
@@ -122,7 +121,7 @@ mod tests {
             }
         }
         depth[1].point_in_camera += truth.rotation * Vector3::new(-0.2, 0.0, 0.0);
-        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let camera = crate::residuals::testing::vga_camera();
         let start = retract(&truth, &Vector6::new(0.03, -0.02, 0.02, 0.02, -0.03, 0.01));
         let mut result = PoseResult::default();
         let config = PoseOptimizerConfig::default();

@@ -166,22 +166,17 @@ mod tests {
         DepthObservation, PhotometricObservation, PhotometricTerm, PoseOptimizerConfig, PoseResult,
         SurfaceObservations, optimize_pose_with_depth,
     };
-    use crate::residuals::testing::SplitMix64;
+    use crate::residuals::testing::{SplitMix64, vga_camera};
     use crate::residuals::{IntensityGrid, PosePrior};
-    use gfs_core::camera::PinholeCamera;
     use nalgebra::{Isometry3, Matrix6, Vector3};
 
     const CELL_PX: u32 = 4;
     const WALL_M: f64 = 2.0;
 
-    fn camera() -> PinholeCamera {
-        PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480)
-    }
-
     /// Faint stripes across x on a wall at `WALL_M` seen from the identity, as 4 px cell
     /// means with independent noise of `sigma` gray levels per cell.
     fn wall_cells(sigma: f64, seed: u64) -> Vec<f32> {
-        let (camera, mut rng) = (camera(), SplitMix64::new(seed));
+        let (camera, mut rng) = (vga_camera(), SplitMix64::new(seed));
         let (w, h) = (640 / CELL_PX as usize, 480 / CELL_PX as usize);
         let mut values = Vec::with_capacity(w * h);
         for j in 0..h {
@@ -212,7 +207,7 @@ mod tests {
     /// The information of the pose at the identity from the stripes, noise `sigma`, and
     /// the wall's depth (which fixes the distance and the two tilts).
     fn information(sigma: f64) -> Matrix6<f64> {
-        let camera = camera();
+        let camera = vga_camera();
         let (reference_values, frame_values) = (wall_cells(sigma, 1), wall_cells(sigma, 2));
         let reference = grid(&reference_values);
         let mut photometric = Vec::new();

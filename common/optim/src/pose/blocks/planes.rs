@@ -77,14 +77,13 @@ mod tests {
         optimize_pose_with_depth,
     };
     use crate::residuals::{PlaneToPlane, PosePrior};
-    use gfs_core::camera::PinholeCamera;
     use nalgebra::{Isometry3, Vector3};
 
     /// The pose after one pair of a wall (z = 3) with a frame plane whose normal is
     /// tilted by `tilt_deg` about x, the prediction drawing the pose towards identity as
     /// the tracker's prior does (6.7 mm, 0.44 degrees); and whether the pair held.
     fn one_pair(tilt_deg: f64) -> (Isometry3<f64>, bool) {
-        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let camera = crate::residuals::testing::vga_camera();
         let a = tilt_deg.to_radians();
         let planes = [PlaneObservation {
             normal_in_world: Vector3::new(0.0, 0.0, 1.0),

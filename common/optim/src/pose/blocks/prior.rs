@@ -80,7 +80,6 @@ mod tests {
         optimize_pose_with_depth,
     };
     use crate::residuals::PosePrior;
-    use gfs_core::camera::PinholeCamera;
     use nalgebra::{Isometry3, Vector3};
 
     #[test]
@@ -88,7 +87,7 @@ mod tests {
         // A wall (z = 3) seen by depth only, 1 mm sigma: it fixes the distance and the
         // two tilts, not the slide along it nor the turn about its normal. The true pose
         // is 2 cm nearer than the prediction and 1.5 cm aside.
-        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let camera = crate::residuals::testing::vga_camera();
         let truth = Isometry3::translation(0.015, 0.0, 0.02);
         let predicted = Isometry3::identity();
         let mut depth = Vec::new();
