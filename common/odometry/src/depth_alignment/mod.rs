@@ -115,14 +115,22 @@ pub struct DepthAlignmentConfig {
     /// A frame tracked on its depth whose pose's worst direction has a standard
     /// deviation above this (metres at the lever arm), with fewer than
     /// `renewal_overlap` of its nodes paired with the reference's and its own surfaces
-    /// fixing a pose within this, becomes a keyframe: the depth reference is renewed
-    /// while the frame is still `tracked`, before the view leaves it (a `degraded`
-    /// frame without points makes none, and in a room without keypoints no other rule
-    /// asks for one in time); 0 = never; default 0.006 (the 24 synthetic low-texture
-    /// sequences with all terms 5.78 -> 5.38 mm, 15 -> 17 within 4 mm: rotation seeds 4
-    /// and 6 7.6 / 11.1 -> 3.5 / 3.7 mm with every frame `tracked`; a 4.5 mm trigger
-    /// with the own surfaces still at 6 mm: 5.49 mm, 16).
+    /// fixing a pose within `renewal_own_sigma_m`, becomes a keyframe: the depth
+    /// reference is renewed while the frame is still `tracked`, before the view leaves
+    /// it (a `degraded` frame without points makes none, and in a room without
+    /// keypoints no other rule asks for one in time); 0 = never. The keyframe keeps the
+    /// frame's error, and the frame is the least determined of those since the last
+    /// renewal: default 0.004 (0.006 until 2026-11-28: the 24 synthetic low-texture
+    /// sequences with all terms 20 -> 21 within 4 mm, fast 2 5.1 -> 3.2 mm, rotation 6
+    /// 3.8 -> 2.5 mm, rotation 1 6.5 -> 10.7 mm; 0.003: 21, rotation 1 12.2 mm; 0:
+    /// 18).
     pub renewal_sigma_m: f64,
+    /// The worst standard deviation (metres at the lever arm) a renewing frame's own
+    /// surfaces must determine its pose within ([`self_information`]): a frame of one
+    /// wall, whose slide a new reference would keep, does not renew; default 0.006
+    /// (the 24 sequences with all terms 5.78 -> 5.38 mm when the rule came, rotation
+    /// seeds 4 and 6 7.6 / 11.1 -> 3.5 / 3.7 mm with every frame `tracked`).
+    pub renewal_own_sigma_m: f64,
     /// Share of a frame's depth nodes paired with the reference below which its view
     /// has moved off the reference (`renewal_sigma_m`); default 0.85 (where most nodes
     /// pair, a weak direction is the surfaces', which a new reference does not fix:
@@ -149,7 +157,8 @@ impl Default for DepthAlignmentConfig {
             motion_prior_velocity_accel_m_s2: 4.0,
             motion_prior_angular_rate_accel_deg_s2: 200.0,
             independent_pixels_per_node: 1.0,
-            renewal_sigma_m: 0.006,
+            renewal_sigma_m: 0.004,
+            renewal_own_sigma_m: 0.006,
             renewal_overlap: 0.85,
         }
     }
@@ -198,7 +207,7 @@ pub fn needs_new_reference(
     config.renewal_sigma_m > 0.0
         && overlap < config.renewal_overlap
         && sigma(pose_information) > config.renewal_sigma_m
-        && sigma(&self_information(config, grid)) < config.renewal_sigma_m
+        && sigma(&self_information(config, grid)) < config.renewal_own_sigma_m
 }
 
 mod associator;

@@ -267,6 +267,41 @@ fn a_view_turned_off_its_reference_onto_a_corner_of_its_own_needs_a_new_one() {
 }
 
 #[test]
+fn a_view_renews_its_reference_before_it_is_as_loose_as_its_own_surfaces_may_be() {
+    // A view turned onto a corner of its own, its pose held to 5 mm in every
+    // direction by a reference it has half left: above the 4 mm trigger, and its own
+    // surfaces hold it within the 6 mm they must.
+    let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+    let room = [
+        ([0.0, 1.0, 0.0], 1.0),
+        ([1.0, 0.0, 0.0], -3.0),
+        ([0.0, 0.0, 1.0], 4.0),
+    ];
+    let turned = Isometry3::rotation(Vector3::y() * 30f64.to_radians());
+    let current = planes_depth(&camera, &turned, &room);
+    let config = DepthAlignmentConfig::default();
+    let held_to = |sigma_m: f64| {
+        let l2 = config.lever_arm_m.powi(2);
+        Matrix6::from_diagonal(&nalgebra::Vector6::new(1.0, 1.0, 1.0, l2, l2, l2))
+            / (sigma_m * sigma_m)
+    };
+    assert!(needs_new_reference(&config, &held_to(0.005), 0.5, &current));
+    // Within the trigger it keeps its reference, as it does with the trigger at the
+    // own surfaces' bound (the rule before 2026-11-28).
+    assert!(!needs_new_reference(
+        &config,
+        &held_to(0.003),
+        0.5,
+        &current
+    ));
+    let late = DepthAlignmentConfig {
+        renewal_sigma_m: config.renewal_own_sigma_m,
+        ..config.clone()
+    };
+    assert!(!needs_new_reference(&late, &held_to(0.005), 0.5, &current));
+}
+
+#[test]
 fn noisy_normals_do_not_pull_a_frame_onto_the_reference_nodes() {
     // The floor and a wall 4 m ahead: their geometry leaves x free, so only the
     // normals' noise acts along it. Paired with the node at each pixel, that noise
