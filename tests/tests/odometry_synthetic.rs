@@ -195,14 +195,15 @@ fn low_texture_rotation_renews_its_depth_reference_and_is_tracked_within_4_mm() 
 /// Fast seed 2 sees 50-150 points and lines, most on walls 3-5 m away, and is tracked
 /// on them and its depth. Its error grew with each frame's distance from the reference
 /// keyframe, and a reference renewed only at a 6 mm worst direction kept it: 5.1 mm.
-/// Renewed at 4 mm: 3.2 mm. With the depth settings `gfsvo synth` writes for its
-/// sensor (every node, each as 4 independent pixels), as `tests/bench/low_texture.sh`.
+/// Renewed at 4 mm: 3.2 mm. With the synthetic sensor's config (`configs/synthetic.toml`:
+/// every node, each as 4 independent pixels), as `tests/bench/low_texture.sh` runs it.
 #[test]
 fn low_texture_fast_far_points_renew_their_reference_in_time_and_stay_within_4_mm() {
-    let mut config = with_depth_and_planes();
-    config.tracking.depth.source_step = 1;
-    config.tracking.depth.independent_pixels_per_node = 4.0;
-    config.tracking.depth.photometric_sigma = 0.7;
+    let mut config = gfs_pipeline::Config::built_in("synthetic")
+        .expect("the built-in synthetic config parses")
+        .odometry();
+    config.tracking.use_depth_alignment = true;
+    config.tracking.use_planes = true;
     let r = run_seed(
         SceneKind::LowTexture,
         TrajectoryKind::Fast,
