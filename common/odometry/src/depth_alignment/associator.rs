@@ -94,6 +94,7 @@ impl DepthAssociator {
                     surface_in_world: (world_from_reference * Point3::from(s)).coords,
                     normal_in_world: world_from_reference.rotation * n,
                     inv_sigma2: 0.0,
+                    normal_tilt_variance: 0.0,
                 });
             }
         }
@@ -109,6 +110,7 @@ impl DepthAssociator {
         };
         for (o, (sigma2, tangential2, share)) in self.observations.iter_mut().zip(&self.variances) {
             o.inv_sigma2 = 1.0 / (sigma2 + tangential2 * tilt_variance * share);
+            o.normal_tilt_variance = self.normal_variance * share;
         }
         &self.observations
     }

@@ -48,6 +48,12 @@ pub struct DepthObservation {
     pub normal_in_world: Vector3<f64>,
     /// Information of the point-to-plane distance, 1/m^2 (the depth noise of both ends).
     pub inv_sigma2: f64,
+    /// Variance of the reference normal's tilt along each direction of its plane, rad^2
+    /// (0 for an exact normal). A tilt `d` turns the point's offset `t` along the plane
+    /// into a distance `d . t`, which costs `inv_sigma2 v |t|^2` on average: the pair
+    /// would pull the pose to where it was paired, whatever the surface says. That
+    /// average is taken out of the cost.
+    pub normal_tilt_variance: f64,
 }
 
 /// A reference surface point with its intensity, for the frame's intensity grid (see

@@ -93,7 +93,7 @@ impl<'a> PoseProblem<'a> {
         cost.is_finite().then_some(cost)
     }
 
-    /// Builds `H = sum J^T w Omega J`, `g = sum J^T w Omega e` and the cost at `pose`.
+    /// Builds `H = sum J^T w Omega J` and `g = sum J^T w Omega e` at `pose`.
     pub(super) fn linearize(
         &self,
         pose: &Isometry3<f64>,

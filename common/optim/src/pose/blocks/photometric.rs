@@ -253,6 +253,7 @@ mod tests {
                     surface_in_world: s,
                     normal_in_world: Vector3::new(0.0, 0.0, -1.0),
                     inv_sigma2: 1e6,
+                    normal_tilt_variance: 0.0,
                 }
             })
             .collect()

@@ -66,7 +66,6 @@ impl Block for PriorBlock {
             let jt_w = l.d_pose.transpose() * prior.information;
             normal.h += jt_w * l.d_pose;
             normal.g += jt_w * l.error;
-            normal.cost += l.error.dot(&(prior.information * l.error));
         }
     }
 
@@ -99,6 +98,7 @@ mod tests {
                     surface_in_world: s,
                     normal_in_world: Vector3::new(0.0, 0.0, -1.0),
                     inv_sigma2: 1e6,
+                    normal_tilt_variance: 0.0,
                 });
             }
         }
