@@ -34,7 +34,7 @@ pub use plane_pairs::{
     PerpendicularPlanesLinearization,
 };
 pub use point::{PointLinearization, PointReprojection};
-pub use point_to_plane::{PointToPlane, PointToPlaneLinearization, TangentialOffset};
+pub use point_to_plane::{PointToPlane, PointToPlaneLinearization};
 pub use pose_prior::{PosePrior, PosePriorLinearization};
 pub use stereo::{StereoPointLinearization, StereoPointReprojection};
 

@@ -7,10 +7,10 @@
 //! `de/drho = -n_c^T` and `de/dphi = (n_c x q_c)^T` (the terms of `s_c` cancel).
 //!
 //! The offset of the point along the plane, `t = (I - n_c n_c^T)(q_c - s_c)`, is no
-//! error: but a normal tilted by noise turns part of it into one (see
+//! error, but a normal tilted by noise turns part of it into one (see
 //! [`crate::DepthObservation::normal_tilt_variance`]).
 
-use nalgebra::{Isometry3, Matrix1x6, Matrix3, Matrix3x6, Point3, Vector3};
+use nalgebra::{Isometry3, Matrix1x6, Point3, Vector3, Vector6};
 
 /// One depth point of the frame associated with a reference surface element.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -26,15 +26,6 @@ pub struct PointToPlaneLinearization {
     pub error: f64,
     /// d(error)/d(delta) for the left pose perturbation, 1x6.
     pub d_pose: Matrix1x6<f64>,
-}
-
-/// The offset of a [`PointToPlane`]'s point along its plane, with its Jacobian.
-#[derive(Clone, Copy, Debug)]
-pub struct TangentialOffset {
-    /// The point's offset from the surface point within the plane, camera frame, metres.
-    pub offset: Vector3<f64>,
-    /// d(offset)/d(delta) for the left pose perturbation, 3x6.
-    pub d_pose: Matrix3x6<f64>,
 }
 
 impl PointToPlane {
@@ -69,34 +60,39 @@ impl PointToPlane {
         }
     }
 
-    /// The point's offset along the plane and its Jacobian. Under the left
-    /// perturbation `q_c - s_c` moves by `[-I, [s_c]x]` and the normal by
-    /// `[0, -[n_c]x]`; the offset `d - n (n . d)` follows both.
+    /// The distance along the normal and the offset along the plane,
+    /// `t = (I - n_c n_c^T)(q_c - s_c)`, camera frame, metres.
     #[inline]
-    pub fn tangential_offset(
+    pub fn error_and_offset(
         &self,
         camera_from_world: &Isometry3<f64>,
         surface_in_world: &Vector3<f64>,
         normal_in_world: &Vector3<f64>,
-    ) -> TangentialOffset {
+    ) -> (f64, Vector3<f64>) {
         let s_c = (camera_from_world * Point3::from(*surface_in_world)).coords;
         let n_c = camera_from_world.rotation * normal_in_world;
         let d = self.point_in_camera - s_c;
         let e = n_c.dot(&d);
-        let mut d_d = Matrix3x6::zeros();
-        d_d.fixed_view_mut::<3, 3>(0, 0)
-            .copy_from(&-Matrix3::identity());
-        d_d.fixed_view_mut::<3, 3>(0, 3)
-            .copy_from(&s_c.cross_matrix());
-        let mut d_n = Matrix3x6::zeros();
-        d_n.fixed_view_mut::<3, 3>(0, 3)
-            .copy_from(&-n_c.cross_matrix());
-        TangentialOffset {
-            offset: d - n_c * e,
-            d_pose: (Matrix3::identity() - n_c * n_c.transpose()) * d_d
-                - d_n * e
-                - n_c * (d.transpose() * d_n),
-        }
+        (e, d - n_c * e)
+    }
+
+    /// `J^T t`, the gradient of `|t|^2 / 2` for the offset `t` along the plane, over
+    /// the left perturbation. `q_c - s_c` moves by `[-I, [s_c]x]` and the normal by
+    /// `[0, -[n_c]x]`; with `n_c . t = 0` the product is `(-t; t x s_c - e n_c x t)`.
+    #[inline]
+    pub fn offset_gradient(
+        &self,
+        camera_from_world: &Isometry3<f64>,
+        surface_in_world: &Vector3<f64>,
+        normal_in_world: &Vector3<f64>,
+    ) -> Vector6<f64> {
+        let s_c = (camera_from_world * Point3::from(*surface_in_world)).coords;
+        let n_c = camera_from_world.rotation * normal_in_world;
+        let d = self.point_in_camera - s_c;
+        let e = n_c.dot(&d);
+        let t = d - n_c * e;
+        let turn = t.cross(&s_c) - n_c.cross(&t) * e;
+        Vector6::new(-t.x, -t.y, -t.z, turn.x, turn.y, turn.z)
     }
 }
 
@@ -131,7 +127,7 @@ mod tests {
     }
 
     #[test]
-    fn tangential_jacobian_matches_central_differences() {
+    fn offset_gradient_matches_central_differences() {
         let mut rng = SplitMix64::new(11);
         for _ in 0..50 {
             let (_, t_cw) = random_camera_and_pose(&mut rng);
@@ -140,13 +136,17 @@ mod tests {
             let r = PointToPlane {
                 point_in_camera: (t_cw * Point3::from(s_w)).coords + rng.vector3(0.05),
             };
-            let lin = r.tangential_offset(&t_cw, &s_w, &n_w);
-            let n_c = t_cw.rotation * n_w;
-            assert!(lin.offset.dot(&n_c).abs() < 1e-12);
+            let gradient = r.offset_gradient(&t_cw, &s_w, &n_w);
+            let (e, t) = r.error_and_offset(&t_cw, &s_w, &n_w);
+            assert!((e - r.error(&t_cw, &s_w, &n_w)).abs() < 1e-12);
+            assert!(t.dot(&(t_cw.rotation * n_w)).abs() < 1e-12);
             assert_jacobian(
-                |d: &Vector6<f64>| r.tangential_offset(&retract(&t_cw, d), &s_w, &n_w).offset,
-                &lin.d_pose,
-                "tangential offset d_pose",
+                |d: &Vector6<f64>| {
+                    let t = r.error_and_offset(&retract(&t_cw, d), &s_w, &n_w).1;
+                    Vector1::new(0.5 * t.norm_squared())
+                },
+                &gradient.transpose(),
+                "tangential offset gradient",
             );
         }
     }

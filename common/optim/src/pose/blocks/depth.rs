@@ -53,20 +53,14 @@ impl Block for DepthBlock<'_> {
             let pair = PointToPlane {
                 point_in_camera: obs.point_in_camera,
             };
-            let e = pair.error(pose, &obs.surface_in_world, &obs.normal_in_world);
+            let (e, t) = pair.error_and_offset(pose, &obs.surface_in_world, &obs.normal_in_world);
             let s = obs.inv_sigma2 * e * e;
             let (cost, weight) = if robust {
                 (self.huber.cost(s), self.huber.weight(s))
             } else {
                 (s, 1.0)
             };
-            sum += cost;
-            if obs.normal_tilt_variance > 0.0 {
-                let t = pair
-                    .tangential_offset(pose, &obs.surface_in_world, &obs.normal_in_world)
-                    .offset;
-                sum -= weight * obs.inv_sigma2 * obs.normal_tilt_variance * t.norm_squared();
-            }
+            sum += cost - weight * obs.inv_sigma2 * obs.normal_tilt_variance * t.norm_squared();
         }
         Some(sum)
     }
@@ -93,9 +87,9 @@ impl Block for DepthBlock<'_> {
             // keeps it, so that it stays positive (the tracker discounts it from the
             // information on its own, `normal_noise_information`).
             if obs.normal_tilt_variance > 0.0 {
-                let t = pair.tangential_offset(pose, &obs.surface_in_world, &obs.normal_in_world);
-                let k = w * obs.normal_tilt_variance;
-                normal.g -= t.d_pose.transpose() * t.offset * k;
+                let gradient =
+                    pair.offset_gradient(pose, &obs.surface_in_world, &obs.normal_in_world);
+                normal.g -= gradient * (w * obs.normal_tilt_variance);
             }
         }
     }
