@@ -38,8 +38,7 @@ impl PointToPlane {
         surface_in_world: &Vector3<f64>,
         normal_in_world: &Vector3<f64>,
     ) -> f64 {
-        let s_c = (camera_from_world * Point3::from(*surface_in_world)).coords;
-        let n_c = camera_from_world.rotation * normal_in_world;
+        let (s_c, n_c) = plane_in_camera(camera_from_world, surface_in_world, normal_in_world);
         n_c.dot(&(self.point_in_camera - s_c))
     }
 
@@ -51,8 +50,7 @@ impl PointToPlane {
         surface_in_world: &Vector3<f64>,
         normal_in_world: &Vector3<f64>,
     ) -> PointToPlaneLinearization {
-        let s_c = (camera_from_world * Point3::from(*surface_in_world)).coords;
-        let n_c = camera_from_world.rotation * normal_in_world;
+        let (s_c, n_c) = plane_in_camera(camera_from_world, surface_in_world, normal_in_world);
         let r = n_c.cross(&self.point_in_camera);
         PointToPlaneLinearization {
             error: n_c.dot(&(self.point_in_camera - s_c)),
@@ -69,8 +67,7 @@ impl PointToPlane {
         surface_in_world: &Vector3<f64>,
         normal_in_world: &Vector3<f64>,
     ) -> (f64, Vector3<f64>) {
-        let s_c = (camera_from_world * Point3::from(*surface_in_world)).coords;
-        let n_c = camera_from_world.rotation * normal_in_world;
+        let (s_c, n_c) = plane_in_camera(camera_from_world, surface_in_world, normal_in_world);
         let d = self.point_in_camera - s_c;
         let e = n_c.dot(&d);
         (e, d - n_c * e)
@@ -86,14 +83,26 @@ impl PointToPlane {
         surface_in_world: &Vector3<f64>,
         normal_in_world: &Vector3<f64>,
     ) -> Vector6<f64> {
-        let s_c = (camera_from_world * Point3::from(*surface_in_world)).coords;
-        let n_c = camera_from_world.rotation * normal_in_world;
+        let (s_c, n_c) = plane_in_camera(camera_from_world, surface_in_world, normal_in_world);
         let d = self.point_in_camera - s_c;
         let e = n_c.dot(&d);
         let t = d - n_c * e;
         let turn = t.cross(&s_c) - n_c.cross(&t) * e;
         Vector6::new(-t.x, -t.y, -t.z, turn.x, turn.y, turn.z)
     }
+}
+
+/// The reference surface point and its normal in the camera frame.
+#[inline]
+fn plane_in_camera(
+    camera_from_world: &Isometry3<f64>,
+    surface_in_world: &Vector3<f64>,
+    normal_in_world: &Vector3<f64>,
+) -> (Vector3<f64>, Vector3<f64>) {
+    (
+        (camera_from_world * Point3::from(*surface_in_world)).coords,
+        camera_from_world.rotation * normal_in_world,
+    )
 }
 
 #[cfg(test)]
