@@ -106,6 +106,11 @@ impl PoseSolver {
         &self.result.plane_inliers
     }
 
+    /// Per depth observation of the last solve: inlier at its pose.
+    pub fn depth_inliers(&self) -> &[bool] {
+        &self.result.depth_inliers
+    }
+
     /// Information matrix of the last solve's inliers (left perturbation `[rho; phi]`).
     pub fn information(&self) -> &Matrix6<f64> {
         &self.result.information

@@ -127,10 +127,17 @@ impl DepthAssociator {
     /// `camera_from_world`) only because their normals are noisy: a node's normal tilted
     /// by `d` along a direction `e` of its surface lends it `w (d . e)^2` of
     /// information, where the surface gives none (a wall and the floor along their
-    /// edge). Translation block only, `sum w sigma_n^2 (I - n n^T)`.
-    pub fn normal_noise_information(&self, camera_from_world: &Isometry3<f64>) -> Matrix6<f64> {
+    /// edge). Translation block only, `sum w sigma_n^2 (I - n n^T)`, over the pairs the
+    /// optimisation kept (`inliers`, one flag per pair): a rejected pair lent the
+    /// information nothing, so it has no noise to take out of it.
+    pub fn normal_noise_information(
+        &self,
+        camera_from_world: &Isometry3<f64>,
+        inliers: &[bool],
+    ) -> Matrix6<f64> {
         let mut h = Matrix6::zeros();
-        for (o, (_, _, share)) in self.observations.iter().zip(&self.variances) {
+        let pairs = self.observations.iter().zip(&self.variances).zip(inliers);
+        for ((o, (_, _, share)), _) in pairs.filter(|(_, inlier)| **inlier) {
             let n = camera_from_world.rotation * o.normal_in_world;
             let tangent = nalgebra::Matrix3::identity() - n * n.transpose();
             let block = tangent * (o.inv_sigma2 * self.normal_variance * share);

@@ -45,11 +45,16 @@ fn tilted_normals_lend_a_wall_information_along_itself() {
     let mut current = reference.clone();
     let pose = Isometry3::identity();
     let mut associator = DepthAssociator::default();
-    associator.associate(
-        &config, &camera, &current, &pose, &reference, &pose, 0.015, 1.0,
-    );
+    let count = associator
+        .associate(
+            &config, &camera, &current, &pose, &reference, &pose, 0.015, 1.0,
+        )
+        .len();
     // Exact normals: nothing lent.
-    assert_eq!(associator.normal_noise_information(&pose), Matrix6::zeros());
+    assert_eq!(
+        associator.normal_noise_information(&pose, &vec![true; count]),
+        Matrix6::zeros()
+    );
     // Every frame normal tilted by 0.02 rad: read as the median of tilts of
     // variance 0.02^2 / (4 ln 2) per component, along the wall's x and y only.
     let tilt = [0.02f32.sin(), 0.0, -0.02f32.cos()];
@@ -59,13 +64,24 @@ fn tilted_normals_lend_a_wall_information_along_itself() {
             &config, &camera, &current, &pose, &reference, &pose, 0.015, 1.0,
         )
         .to_vec();
-    let h = associator.normal_noise_information(&pose);
+    let h = associator.normal_noise_information(&pose, &vec![true; pairs.len()]);
     let w: f64 = pairs.iter().map(|o| o.inv_sigma2).sum();
     let expected = w * 0.02f64.powi(2) / (4.0 * std::f64::consts::LN_2);
     assert!(!pairs.is_empty());
     assert!((h[(0, 0)] / expected - 1.0).abs() < 1e-3, "{h}");
     assert!((h[(1, 1)] / expected - 1.0).abs() < 1e-3, "{h}");
     assert!(h[(2, 2)].abs() < 1e-9 * expected && h[(3, 3)] == 0.0, "{h}");
+    // The pairs the optimisation rejected lent nothing, and have nothing taken out.
+    let every_other: Vec<bool> = (0..pairs.len()).map(|k| k % 2 == 0).collect();
+    let kept: f64 = pairs
+        .iter()
+        .zip(&every_other)
+        .filter(|(_, inlier)| **inlier)
+        .map(|(o, _)| o.inv_sigma2)
+        .sum();
+    let h = associator.normal_noise_information(&pose, &every_other);
+    let expected = kept * 0.02f64.powi(2) / (4.0 * std::f64::consts::LN_2);
+    assert!((h[(0, 0)] / expected - 1.0).abs() < 1e-3, "{h}");
 }
 
 #[test]

@@ -209,7 +209,7 @@ impl Tracker {
         information
             - self
                 .depth_associator
-                .normal_noise_information(camera_from_world)
+                .normal_noise_information(camera_from_world, self.solver.depth_inliers())
     }
 
     /// `Degraded` when the last optimisation's information leaves a pose direction
