@@ -117,10 +117,19 @@ fn a_request_sent_again_is_applied_once() {
 }
 
 #[test]
-fn a_long_outage_starts_a_new_map_that_resets_the_mappers() {
+fn a_long_outage_starts_a_new_map_that_resets_the_mappers_and_the_axes() {
     let (mut tracking, mut mapping) = halves();
     let scene = Scene::new(200, 20);
-    step(&mut tracking, &mut mapping, &scene, 0);
+    let mut first = scene.features(0, &truth(0));
+    first.manhattan = Some(gfs_planes::ManhattanAxes {
+        rotation: nalgebra::Rotation3::identity(),
+        observed: [true, true, false],
+        support: [0.5, 0.4, 0.0],
+        confidence: 0.9,
+    });
+    let out = tracking.process(first).expect("features");
+    assert!(tracking.apply(mapping.insert(out.keyframe.expect("first keyframe"))));
+    assert!(tracking.manhattan().axes().is_some());
     let frames_before_new_map = OdometryConfig::default().tracking.frames_before_new_map;
     let blind = |k: u64| crate::frame::FrameFeatures {
         id: gfs_core::ids::FrameId(k),
@@ -137,6 +146,10 @@ fn a_long_outage_starts_a_new_map_that_resets_the_mappers() {
         .expect("features");
     assert_eq!(tracking.state(), TrackingState::NoMap { reset: true });
     assert_eq!(tracking.map().keyframe_count(), 0);
+    assert!(
+        tracking.manhattan().axes().is_none(),
+        "the old map's axes, off by the outage's drift"
+    );
     let k = u64::from(frames_before_new_map) + 1;
     let (pose, request) = step(&mut tracking, &mut mapping, &scene, k);
     let request = request.expect("a new first keyframe");

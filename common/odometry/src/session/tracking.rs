@@ -402,9 +402,12 @@ impl TrackingSession {
             return (frame, None);
         }
         // A long outage: a new local map at the predicted pose, in the same world
-        // frame; the mapping half drops its keyframes with the next request.
+        // frame; the mapping half drops its keyframes with the next request. The
+        // prediction is off by the outage's drift, so the new map learns its own
+        // Manhattan axes (they travel to the mapper with that request).
         tracing::warn!(frame = %frame.features.id, "tracking lost: starting a new local map at the predicted pose");
         self.map.clear_keyframes();
+        self.manhattan = WorldManhattan::new(self.config.tracking.use_manhattan);
         self.state = TrackingState::NoMap { reset: true };
         self.step(frame.features)
     }
