@@ -65,8 +65,9 @@ fn tilted_normals_lend_a_wall_information_along_itself() {
         )
         .to_vec();
     let h = associator.normal_noise_information(&pose, &vec![true; pairs.len()]);
+    let tilt_variance = 0.02f64.powi(2) / (4.0 * std::f64::consts::LN_2);
     let w: f64 = pairs.iter().map(|o| o.inv_sigma2).sum();
-    let expected = w * 0.02f64.powi(2) / (4.0 * std::f64::consts::LN_2);
+    let expected = w * tilt_variance;
     assert!(!pairs.is_empty());
     assert!((h[(0, 0)] / expected - 1.0).abs() < 1e-3, "{h}");
     assert!((h[(1, 1)] / expected - 1.0).abs() < 1e-3, "{h}");
@@ -80,7 +81,7 @@ fn tilted_normals_lend_a_wall_information_along_itself() {
         .map(|(o, _)| o.inv_sigma2)
         .sum();
     let h = associator.normal_noise_information(&pose, &every_other);
-    let expected = kept * 0.02f64.powi(2) / (4.0 * std::f64::consts::LN_2);
+    let expected = kept * tilt_variance;
     assert!((h[(0, 0)] / expected - 1.0).abs() < 1e-3, "{h}");
 }
 
