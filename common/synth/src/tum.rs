@@ -130,10 +130,11 @@ impl SynthSequence {
              # Ideal pinhole (no distortion); ground truth in groundtruth.txt.\n\
              [camera]\nfx = {:?}\nfy = {:?}\ncx = {:?}\ncy = {:?}\nwidth = {}\nheight = {}\n\n\
              [depth]\nscale = {:?}\nmin_m = 0.1\nmax_m = 10.0\n\n\
-             # The rendered noise is independent from pixel to pixel: every depth node is\n\
-             # aligned and sampled (see configs/synthetic.toml).\n\
+             # The rendered noise is independent from pixel to pixel and from frame to\n\
+             # frame: every depth node is aligned and sampled, against the newest\n\
+             # keyframe's depth (see configs/synthetic.toml).\n\
              [tracking.depth]\nsource_step = 1\nindependent_pixels_per_node = 4.0\n\
-             photometric_sigma = 0.7\n",
+             photometric_sigma = 0.7\nkeyframe_reference = true\n",
             c.scene,
             c.trajectory,
             c.frames,

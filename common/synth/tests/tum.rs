@@ -104,11 +104,13 @@ fn write_tum_round_trips_images_depth_lists_and_ground_truth() {
         (cam.fx, cam.cx, 64)
     );
     assert_eq!(marker.depth["scale"].as_float(), Some(5000.0));
-    // The rendered noise is independent from pixel to pixel: every node is sampled.
+    // The rendered noise is independent from pixel to pixel and from frame to frame:
+    // every node is sampled, against the newest keyframe's depth.
     let depth = &marker.tracking["depth"];
     assert_eq!(depth["source_step"].as_integer(), Some(1));
     assert_eq!(depth["independent_pixels_per_node"].as_float(), Some(4.0));
     assert_eq!(depth["photometric_sigma"].as_float(), Some(0.7));
+    assert_eq!(depth["keyframe_reference"].as_bool(), Some(true));
     fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -77,12 +77,10 @@ impl Tracker {
         photometric: bool,
         sensor_variance_scale: f64,
     ) -> bool {
-        self.update_keyframe_depth(map);
         for pass in 0..self.config.depth.max_distance_m.len() {
             let Some((reference, reference_from_world)) = depth_reference(
                 self.config.depth.keyframe_reference,
                 self.keyframe_depth.as_ref(),
-                self.reference,
                 self.last.as_ref(),
                 map,
             ) else {
@@ -128,30 +126,28 @@ impl Tracker {
         motion_prior(&self.config.depth, &predicted, dt, tracked_on)
     }
 
-    /// Keeps the depth of the reference keyframe: when the reference changed to the
-    /// keyframe made of the last frame, that frame's depth is copied (a keyframe does not
-    /// keep its depth in the map).
-    fn update_keyframe_depth(&mut self, map: &Map) {
-        if !self.config.depth.keyframe_reference {
+    /// Holds the depth of the keyframe made of the last frame, when the reference just
+    /// became it (a keyframe does not keep its depth in the map). Called before every
+    /// frame, so that each keyframe's depth is held, not only that of a keyframe whose
+    /// next frame needed the depth.
+    pub(super) fn hold_keyframe_depth(&mut self, map: &Map) {
+        if !self.config.use_depth_alignment || !self.config.depth.keyframe_reference {
             return;
         }
-        let Some(reference) = self.reference else {
+        let (Some(reference), Some(last)) = (self.reference, self.last.as_ref()) else {
             return;
         };
-        if self
+        let held = self
             .keyframe_depth
             .as_ref()
-            .is_some_and(|(kf, _)| *kf == reference)
-        {
+            .is_some_and(|(kf, _)| *kf == reference);
+        if held || last.features.depth.is_empty() {
             return;
         }
-        let Some(last) = self.last.as_ref() else {
-            return;
-        };
-        let made_of_last = map
+        if map
             .keyframe(reference)
-            .is_some_and(|k| k.features.id == last.features.id);
-        if made_of_last && !last.features.depth.is_empty() {
+            .is_some_and(|k| k.features.id == last.features.id)
+        {
             let mut grid = self
                 .keyframe_depth
                 .take()
@@ -235,19 +231,18 @@ impl Tracker {
 }
 
 /// The depth the frame is aligned with, and its pose: with `[tracking.depth]
-/// keyframe_reference`, the reference keyframe's (at its pose in the map, which the local
-/// BA refines: the frame is tied to the map, not to the last frame's drift), else, or
-/// when that depth was not kept, the last frame's.
+/// keyframe_reference`, the newest keyframe's while the map holds it (at its pose there,
+/// which the local BA refines: the frame is tied to the map, not to the last frame's
+/// drift), also when the points' reference has moved to an older keyframe; else the last
+/// frame's.
 fn depth_reference<'a>(
     keyframe_reference: bool,
     keyframe_depth: Option<&'a (KeyFrameId, DepthGrid)>,
-    reference: Option<KeyFrameId>,
     last: Option<&'a TrackedFrame>,
     map: &Map,
 ) -> Option<(&'a DepthGrid, Isometry3<f64>)> {
     if keyframe_reference
         && let Some((kf, grid)) = keyframe_depth
-        && Some(*kf) == reference
         && let Some(keyframe) = map.keyframe(*kf)
     {
         return Some((grid, keyframe.camera_from_world));
@@ -260,12 +255,12 @@ fn depth_reference<'a>(
 mod tests {
     use crate::config::TrackingConfig;
     use crate::frame::FrameFeatures;
-    use crate::map::Map;
+    use crate::map::{KeyFrame, Map};
     use crate::sightings::Sightings;
     use crate::status::TrackingStatus;
     use crate::testing::{CORNER, camera, planes_depth, scale, textured_planes_depth};
     use crate::tracker::{TrackedFrame, Tracker};
-    use gfs_core::ids::FrameId;
+    use gfs_core::ids::{FrameId, KeyFrameId};
     use gfs_lines::grid::GridConfig;
     use nalgebra::{Isometry3, Vector6};
 
@@ -375,6 +370,61 @@ mod tests {
         // Geometry alone holds the pose to the prediction along the edge.
         let (without, tracked) = track_along_the_edge(0.0);
         assert!(!tracked && without > 0.01, "depth alone: {without} m");
+    }
+
+    /// A keyframe made of `features` at `camera_from_world`, linked to no landmark.
+    fn keyframe(features: FrameFeatures, camera_from_world: Isometry3<f64>) -> KeyFrame {
+        KeyFrame {
+            id: KeyFrameId(0),
+            camera_from_world,
+            point_ids: Vec::new(),
+            line_ids: Vec::new(),
+            plane_ids: Vec::new(),
+            features,
+            loop_correction: Isometry3::identity(),
+        }
+    }
+
+    #[test]
+    fn the_depth_reference_stays_the_held_keyframe_when_the_points_reference_moves_on() {
+        // The points' reference moves to an older keyframe (it shares more map points)
+        // while the last frame was tracked 5 mm off: the frame is still aligned with
+        // the keyframe whose depth the tracker holds (5 mm off with the last frame's).
+        let mut config = TrackingConfig {
+            use_depth_alignment: true,
+            ..TrackingConfig::default()
+        };
+        config.depth.keyframe_reference = true;
+        // No motion prior: its centre comes from the drifted last frame too.
+        config.depth.motion_prior_accel_m_s2 = 0.0;
+        let mut tracker = Tracker::new(config, camera(), scale(), &GridConfig::default());
+        let mut map = Map::default();
+        let step = gfs_core::se3::exp(&Vector6::new(0.01, -0.004, 0.006, 0.004, 0.008, -0.005));
+        let mut truth = Isometry3::identity();
+        let unrelated = FrameFeatures {
+            id: FrameId(1000),
+            ..FrameFeatures::default()
+        };
+        let older = map.insert_keyframe(keyframe(unrelated, step.inverse()));
+        let made_of_first = map.insert_keyframe(keyframe(frame(0, &truth, &CORNER), truth));
+        let mut first = TrackedFrame::untracked(frame(0, &truth, &CORNER), truth);
+        first.status = TrackingStatus::Tracked;
+        tracker.finish_frame(first);
+        tracker.set_reference(made_of_first);
+        let mut sightings = Sightings::default();
+        truth = step * truth;
+        let mut second = tracker.track(&map, frame(1, &truth, &CORNER), &mut sightings);
+        assert_eq!(second.status, TrackingStatus::Tracked);
+        let drift = Isometry3::translation(0.005, 0.0, 0.0);
+        second.camera_from_world = drift * truth;
+        tracker.finish_frame(second);
+
+        tracker.set_reference(older);
+        truth = step * truth;
+        let third = tracker.track(&map, frame(2, &truth, &CORNER), &mut sightings);
+        let error = third.camera_from_world * truth.inverse();
+        assert_eq!(third.status, TrackingStatus::Tracked);
+        assert!(error.translation.vector.norm() < 5e-4, "{error}");
     }
 
     #[test]

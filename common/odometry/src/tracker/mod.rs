@@ -91,7 +91,7 @@ pub struct Tracker {
     plane_associator: PlaneAssociator,
     /// `(frame plane, map plane)` pairs set on the solver.
     plane_pairs: Vec<(usize, MapPlaneId)>,
-    /// The reference keyframe's depth (`[tracking.depth] keyframe_reference`).
+    /// The newest keyframe's depth (`[tracking.depth] keyframe_reference`).
     keyframe_depth: Option<(KeyFrameId, crate::depth_grid::DepthGrid)>,
     /// The prediction the last frame started from.
     predicted: Isometry3<f64>,
@@ -261,6 +261,7 @@ impl Tracker {
         mut features: FrameFeatures,
         sightings: &mut Sightings,
     ) -> TrackedFrame {
+        self.hold_keyframe_depth(map);
         let predicted = self
             .motion
             .predict_at(features.timestamp)
