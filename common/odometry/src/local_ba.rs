@@ -179,8 +179,14 @@ impl LocalMapBa {
         self.point_ids.clear();
         self.line_ids.clear();
         let mut pose_index: IdMap<KeyFrameId, usize> = IdMap::default();
+        let connected = map.connected(kf);
+        let neighbours = if connected.is_empty() {
+            plane_neighbours(map, kf)
+        } else {
+            connected.into_iter().map(|(k, _)| k).collect()
+        };
         let local: Vec<KeyFrameId> = std::iter::once(kf)
-            .chain(map.connected(kf).into_iter().map(|(k, _)| k))
+            .chain(neighbours)
             .take(self.config.ba_keyframes.max(1))
             .collect();
         for id in &local {
@@ -275,7 +281,9 @@ impl LocalMapBa {
         self.add_structural_pairs(map, &mut problem);
         self.add_planes(map, &mut problem);
         self.add_plane_structure(map, &mut problem, manhattan);
-        if problem.poses.iter().all(|p| p.fixed) || problem.point_observations.is_empty() {
+        let observed =
+            !problem.point_observations.is_empty() || !problem.plane_observations.is_empty();
+        if problem.poses.iter().all(|p| p.fixed) || !observed {
             return None;
         }
         Some(problem)
@@ -476,6 +484,31 @@ impl LocalMapBa {
     }
 }
 
+/// The keyframes that share a map plane with `kf`, most shared planes first (newest
+/// first among equals): the neighbourhood of a keyframe that shares no point or line,
+/// whose planes are all that tie it to the map.
+fn plane_neighbours(map: &Map, kf: KeyFrameId) -> Vec<KeyFrameId> {
+    let Some(keyframe) = map.keyframe(kf) else {
+        return Vec::new();
+    };
+    let mut shared: IdMap<KeyFrameId, u32> = IdMap::default();
+    for plane in keyframe
+        .plane_ids
+        .iter()
+        .flatten()
+        .filter_map(|id| map.plane(*id))
+    {
+        for (other, _) in &plane.observations {
+            if *other != kf && map.keyframe(*other).is_some() {
+                *shared.entry(*other).or_insert(0) += 1;
+            }
+        }
+    }
+    let mut ranked: Vec<_> = shared.into_iter().collect();
+    ranked.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(b.0.cmp(&a.0)));
+    ranked.into_iter().map(|(k, _)| k).collect()
+}
+
 /// Holds fixed every free keyframe with fewer than `min_points` point observations in
 /// the problem: a keyframe of a frame tracked on depth and planes alone has nothing in
 /// the BA along the direction its planes leave free.
@@ -621,6 +654,43 @@ mod tests {
         off.mapping.ba.plane_structure_sigma_deg = 0.0;
         let problem = corner_and_a_turned_wall(&off, &manhattan);
         assert!(problem.plane_axes.is_empty() && problem.plane_parallel.is_empty());
+    }
+
+    #[test]
+    fn keyframes_that_share_only_planes_are_adjusted_through_them() {
+        // Two keyframes of the corner's floor and two walls, no point or line; the
+        // older one stored 8 mm and 0.3 degrees off. The planes alone determine it: the
+        // new keyframe's BA brings it back.
+        let config = OdometryConfig::default();
+        let mut map = Map::default();
+        let mut mapper = Mapper::new(&config, camera(), scale());
+        let mut manhattan = WorldManhattan::new(false);
+        let keyframe_at =
+            |map: &mut Map, mapper: &mut Mapper, manhattan: &mut WorldManhattan, at| {
+                let features = crate::FrameFeatures {
+                    planes: crate::testing::planes_of(&at, &CORNER),
+                    ..crate::FrameFeatures::default()
+                };
+                mapper.add_keyframe(map, &tracked(features, at), manhattan)
+            };
+        let older = keyframe_at(&mut map, &mut mapper, &mut manhattan, Isometry3::identity());
+        let newer = keyframe_at(&mut map, &mut mapper, &mut manhattan, pose(0.1, 0.05));
+        let off = Isometry3::from_parts(
+            nalgebra::Translation3::new(0.008, -0.003, 0.002),
+            nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, 0.3f64.to_radians()),
+        );
+        map.keyframe_mut(older).unwrap().camera_from_world = off;
+
+        let mut ba = LocalMapBa::new(
+            config.mapping.clone(),
+            camera(),
+            scale(),
+            PlaneTrackingConfig::default(),
+        );
+        ba.run(&mut map, newer, &manhattan, &|| false);
+        let error = map.keyframe(older).unwrap().camera_from_world;
+        assert!(error.translation.vector.norm() < 5e-4, "{error}");
+        assert!(error.rotation.angle() < 0.02f64.to_radians(), "{error}");
     }
 
     #[test]
