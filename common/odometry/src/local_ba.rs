@@ -3,8 +3,10 @@
 //! other keyframes that see those landmarks (`K_f`) are held fixed; structural pairs
 //! (eq. 11-13), Manhattan associations (eq. 14) and the lines' depth priors are added
 //! for the lines; the map planes the keyframes see come with their observations, their
-//! Manhattan axes and the parallel / perpendicular pairs among them. The result is
-//! written back and outlier observations are unlinked.
+//! Manhattan axes and the parallel / perpendicular pairs among them. A keyframe that
+//! shares no point or line (a frame tracked on its depth and planes) has the keyframes
+//! that share its planes as `K_c`. The result is written back and outlier observations
+//! are unlinked.
 
 use crate::config::MappingConfig;
 use crate::manhattan::WorldManhattan;
