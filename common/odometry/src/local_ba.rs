@@ -181,14 +181,12 @@ impl LocalMapBa {
         self.point_ids.clear();
         self.line_ids.clear();
         let mut pose_index: IdMap<KeyFrameId, usize> = IdMap::default();
-        let connected = map.connected(kf);
-        let neighbours = if connected.is_empty() {
-            plane_neighbours(map, kf)
-        } else {
-            connected.into_iter().map(|(k, _)| k).collect()
-        };
+        let mut neighbours = map.connected(kf);
+        if neighbours.is_empty() {
+            neighbours = map.plane_covisible(kf);
+        }
         let local: Vec<KeyFrameId> = std::iter::once(kf)
-            .chain(neighbours)
+            .chain(neighbours.into_iter().map(|(k, _)| k))
             .take(self.config.ba_keyframes.max(1))
             .collect();
         for id in &local {
@@ -484,31 +482,6 @@ impl LocalMapBa {
             }
         }
     }
-}
-
-/// The keyframes that share a map plane with `kf`, most shared planes first (newest
-/// first among equals): the neighbourhood of a keyframe that shares no point or line,
-/// whose planes are all that tie it to the map.
-fn plane_neighbours(map: &Map, kf: KeyFrameId) -> Vec<KeyFrameId> {
-    let Some(keyframe) = map.keyframe(kf) else {
-        return Vec::new();
-    };
-    let mut shared: IdMap<KeyFrameId, u32> = IdMap::default();
-    for plane in keyframe
-        .plane_ids
-        .iter()
-        .flatten()
-        .filter_map(|id| map.plane(*id))
-    {
-        for (other, _) in &plane.observations {
-            if *other != kf && map.keyframe(*other).is_some() {
-                *shared.entry(*other).or_insert(0) += 1;
-            }
-        }
-    }
-    let mut ranked: Vec<_> = shared.into_iter().collect();
-    ranked.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(b.0.cmp(&a.0)));
-    ranked.into_iter().map(|(k, _)| k).collect()
 }
 
 /// Holds fixed every free keyframe with fewer than `min_points` point observations in

@@ -272,6 +272,19 @@ pub fn tracked(features: FrameFeatures, camera_from_world: Isometry3<f64>) -> Tr
     frame
 }
 
+/// A keyframe of `features` at `camera_from_world`, linked to nothing.
+pub fn unlinked(features: FrameFeatures, camera_from_world: Isometry3<f64>) -> KeyFrame {
+    KeyFrame {
+        id: KeyFrameId(0),
+        camera_from_world,
+        point_ids: vec![None; features.keypoints.len()],
+        line_ids: vec![None; features.lines.len()],
+        plane_ids: vec![None; features.planes.len()],
+        features,
+        loop_correction: Isometry3::identity(),
+    }
+}
+
 /// A map started by the mapper from the scene seen at the identity: one keyframe whose
 /// keypoints and lines all became landmarks.
 pub fn first_keyframe(scene: &Scene, config: &OdometryConfig) -> (Map, Mapper, KeyFrameId) {

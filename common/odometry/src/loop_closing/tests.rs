@@ -3,26 +3,12 @@
 
 use super::*;
 use crate::config::OdometryConfig;
-use crate::map::KeyFrame;
 use crate::pose_solver::PoseSolver;
-use crate::testing::{Scene, camera, first_keyframe, pose, scale};
+use crate::testing::{Scene, camera, first_keyframe, pose, scale, unlinked};
 use nalgebra::{Isometry3, Translation3};
 
 /// Keyframes after the first, away from it (3 m to the side), before the return.
 const AWAY: usize = 21;
-
-/// A keyframe of `features` at `camera_from_world`, linked to nothing.
-fn unlinked(features: crate::FrameFeatures, camera_from_world: Isometry3<f64>) -> KeyFrame {
-    KeyFrame {
-        id: KeyFrameId(0),
-        camera_from_world,
-        point_ids: vec![None; features.keypoints.len()],
-        line_ids: vec![None; features.lines.len()],
-        plane_ids: vec![None; features.planes.len()],
-        features,
-        loop_correction: Isometry3::identity(),
-    }
-}
 
 /// The first keyframe, `AWAY` keyframes away from it, and the return: seen from
 /// `truth` but estimated 8 cm off. Returns the map and the returning keyframe.

@@ -12,6 +12,31 @@ mod neighbourhood;
 mod plane;
 mod point;
 mod retired;
+
+/// The keyframes other than `kf` named in `observations` (one list per landmark `kf`
+/// sees), with how many landmarks each shares, at least `min_shared`, strongest first
+/// (newest first among equals).
+fn rank_sharing<'a>(
+    kf: KeyFrameId,
+    observations: impl Iterator<Item = &'a Vec<(KeyFrameId, u32)>>,
+    min_shared: u32,
+) -> Vec<(KeyFrameId, u32)> {
+    let mut counts: IdMap<KeyFrameId, u32> = IdMap::default();
+    for observations in observations {
+        for (other, _) in observations {
+            if *other != kf {
+                *counts.entry(*other).or_insert(0) += 1;
+            }
+        }
+    }
+    let mut out: Vec<_> = counts
+        .into_iter()
+        .filter(|(_, n)| *n >= min_shared)
+        .collect();
+    out.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(b.0.cmp(&a.0)));
+    out
+}
+
 #[cfg(test)]
 mod tests;
 
@@ -346,7 +371,6 @@ impl Map {
         let Some(keyframe) = self.keyframes.get(&kf) else {
             return Vec::new();
         };
-        let mut counts: IdMap<KeyFrameId, u32> = IdMap::default();
         let point_obs = keyframe
             .point_ids
             .iter()
@@ -359,19 +383,23 @@ impl Map {
             .flatten()
             .filter_map(|l| self.lines.get(*l))
             .map(|l| &l.observations);
-        for observations in point_obs.chain(line_obs) {
-            for (other, _) in observations {
-                if *other != kf {
-                    *counts.entry(*other).or_insert(0) += 1;
-                }
-            }
-        }
-        let mut out: Vec<_> = counts
-            .into_iter()
-            .filter(|(_, n)| *n >= min_shared)
-            .collect();
-        out.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(b.0.cmp(&a.0)));
-        out
+        rank_sharing(kf, point_obs.chain(line_obs), min_shared)
+    }
+
+    /// Keyframes sharing map planes with `kf`, with the number shared, strongest first:
+    /// the neighbourhood of a keyframe that shares no point or line, whose planes are
+    /// all that tie it to the map.
+    pub fn plane_covisible(&self, kf: KeyFrameId) -> Vec<(KeyFrameId, u32)> {
+        let Some(keyframe) = self.keyframes.get(&kf) else {
+            return Vec::new();
+        };
+        let plane_obs = keyframe
+            .plane_ids
+            .iter()
+            .flatten()
+            .filter_map(|p| self.planes.get(*p))
+            .map(|p| &p.observations);
+        rank_sharing(kf, plane_obs, 1)
     }
 
     /// The keyframes connected to `kf` in the covisibility graph: those sharing at least

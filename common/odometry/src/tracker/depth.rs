@@ -255,12 +255,12 @@ fn depth_reference<'a>(
 mod tests {
     use crate::config::TrackingConfig;
     use crate::frame::FrameFeatures;
-    use crate::map::{KeyFrame, Map};
+    use crate::map::Map;
     use crate::sightings::Sightings;
     use crate::status::TrackingStatus;
-    use crate::testing::{CORNER, camera, planes_depth, scale, textured_planes_depth};
+    use crate::testing::{CORNER, camera, planes_depth, scale, textured_planes_depth, unlinked};
     use crate::tracker::{TrackedFrame, Tracker};
-    use gfs_core::ids::{FrameId, KeyFrameId};
+    use gfs_core::ids::FrameId;
     use gfs_lines::grid::GridConfig;
     use nalgebra::{Isometry3, Vector6};
 
@@ -372,19 +372,6 @@ mod tests {
         assert!(!tracked && without > 0.01, "depth alone: {without} m");
     }
 
-    /// A keyframe made of `features` at `camera_from_world`, linked to no landmark.
-    fn keyframe(features: FrameFeatures, camera_from_world: Isometry3<f64>) -> KeyFrame {
-        KeyFrame {
-            id: KeyFrameId(0),
-            camera_from_world,
-            point_ids: Vec::new(),
-            line_ids: Vec::new(),
-            plane_ids: Vec::new(),
-            features,
-            loop_correction: Isometry3::identity(),
-        }
-    }
-
     #[test]
     fn the_depth_reference_stays_the_held_keyframe_when_the_points_reference_moves_on() {
         // The points' reference moves to an older keyframe (it shares more map points)
@@ -405,8 +392,8 @@ mod tests {
             id: FrameId(1000),
             ..FrameFeatures::default()
         };
-        let older = map.insert_keyframe(keyframe(unrelated, step.inverse()));
-        let made_of_first = map.insert_keyframe(keyframe(frame(0, &truth, &CORNER), truth));
+        let older = map.insert_keyframe(unlinked(unrelated, step.inverse()));
+        let made_of_first = map.insert_keyframe(unlinked(frame(0, &truth, &CORNER), truth));
         let mut first = TrackedFrame::untracked(frame(0, &truth, &CORNER), truth);
         first.status = TrackingStatus::Tracked;
         tracker.finish_frame(first);
