@@ -15,10 +15,14 @@
 //! known exposure gain, and with the gain unknown (fitted per frame, as the tracker's
 //! photometric term does: a smooth shading's shift then looks like a gain change).
 //!
+//! With `--cell N` the intensities are the means of N x N pixel cells (a cell with an
+//! occlusion edge or a hole is left out), as a tracker that samples block means sees
+//! them: what the bound loses from 1 to N is what the texture finer than N pixels holds.
+//!
 //! ```text
 //! cargo run --release -p gfs-odometry --example information_bound -- \
 //!     --scene low-texture --traj slow --seed 5 --frames 120 [--from 60] [--to 100] \
-//!     [--step 2] [--status out/status.txt]
+//!     [--step 2] [--cell 8] [--status out/status.txt]
 //! ```
 
 use gfs_core::camera::PinholeCamera;
@@ -47,6 +51,7 @@ struct Args {
     from: usize,
     to: usize,
     step: usize,
+    cell: usize,
     status: Option<String>,
 }
 
@@ -65,7 +70,7 @@ fn parse(mut args: impl Iterator<Item = String>) -> Result<Args, String> {
         frames: 120,
         ..SynthConfig::default()
     };
-    let (mut from, mut to, mut step, mut status) = (0, usize::MAX, 1, None);
+    let (mut from, mut to, mut step, mut cell, mut status) = (0, usize::MAX, 1, 1, None);
     while let Some(flag) = args.next() {
         let value = args.next().ok_or_else(|| format!("{flag} needs a value"))?;
         let number = |v: &str| {
@@ -90,6 +95,7 @@ fn parse(mut args: impl Iterator<Item = String>) -> Result<Args, String> {
             "--from" => from = number(&value)?,
             "--to" => to = number(&value)?,
             "--step" => step = number(&value)?.max(1),
+            "--cell" => cell = number(&value)?.max(1),
             "--status" => status = Some(value),
             _ => return Err(format!("unknown flag {flag}")),
         }
@@ -99,6 +105,7 @@ fn parse(mut args: impl Iterator<Item = String>) -> Result<Args, String> {
         from,
         to,
         step,
+        cell,
         status,
     })
 }
@@ -118,7 +125,7 @@ fn run(args: &Args) -> Result<(), String> {
     println!(
         "frame  depth (mm)  + intensity, gain known (mm)  + intensity, gain free (mm)  status"
     );
-    let mut bound = Bound::new(&args.config.camera);
+    let mut bound = Bound::new(&args.config.camera, args.cell);
     let (mut frames, mut beyond) = (0, 0);
     for i in (args.from..args.to.min(sequence.len())).step_by(args.step) {
         let information = bound.frame(&sequence, i, luma_variance);
@@ -166,9 +173,14 @@ struct Information {
     intensity_free_gain: Matrix6<f64>,
 }
 
-/// Reused render buffers.
+/// Reused render and cell buffers.
 struct Bound {
     camera: PinholeCamera,
+    /// Pixels per intensity cell side.
+    cell: usize,
+    /// Per cell, the sum of its pixels' luma derivatives (pose, gain); `None` when one
+    /// of its pixels is at an occlusion edge or has no depth.
+    cells: Vec<Option<SVector<f64, 7>>>,
     luma: Vec<f32>,
     depth: Vec<f32>,
     /// Per pose direction, the renders at the two moved poses.
@@ -176,9 +188,11 @@ struct Bound {
 }
 
 impl Bound {
-    fn new(camera: &PinholeCamera) -> Self {
+    fn new(camera: &PinholeCamera, cell: usize) -> Self {
         Self {
             camera: *camera,
+            cell,
+            cells: Vec::new(),
             luma: Vec::new(),
             depth: Vec::new(),
             moved: (0..6).map(|_| Default::default()).collect(),
@@ -205,18 +219,28 @@ impl Bound {
                 render_luma_view(scene, &self.camera, &moved.inverse(), luma, depth);
             }
         }
-        // Columns: the six pose directions, then the gain (d I / d gain = I at gain 1).
-        let mut intensity = SMatrix::<f64, 7, 7>::zeros();
+        // Whole cells only; columns: the six pose directions, then the gain (d I / d gain
+        // = I at gain 1).
+        let (width, cell) = (self.camera.width, self.cell);
+        let cells_wide = width / cell;
+        let cells_high = self.luma.len() / width.max(1) / cell;
+        self.cells.clear();
+        self.cells
+            .resize(cells_wide * cells_high, Some(SVector::zeros()));
         let mut depth_information = Matrix6::zeros();
         for p in 0..self.luma.len() {
+            let (x, y) = (p % width, p / width);
+            let in_cell = (x < cells_wide * cell && y < cells_high * cell)
+                .then(|| (y / cell) * cells_wide + x / cell);
             let z = self.depth[p];
-            if z <= 0.0 {
-                continue;
-            }
-            let at_edge = self.moved.iter().any(|[(_, plus), (_, minus)]| {
-                plus[p] <= 0.0 || minus[p] <= 0.0 || (plus[p] - minus[p]).abs() > EDGE_JUMP_M
-            });
+            let at_edge = z <= 0.0
+                || self.moved.iter().any(|[(_, plus), (_, minus)]| {
+                    plus[p] <= 0.0 || minus[p] <= 0.0 || (plus[p] - minus[p]).abs() > EDGE_JUMP_M
+                });
             if at_edge {
+                if let Some(c) = in_cell {
+                    self.cells[c] = None;
+                }
                 continue;
             }
             let mut d_luma = SVector::<f64, 7>::zeros();
@@ -229,10 +253,18 @@ impl Bound {
                 d_depth[k] = f64::from(depth_plus[p] - depth_minus[p]) / two_steps;
             }
             d_luma[6] = gain * f64::from(self.luma[p]);
-            // Both images carry the noise: the difference has twice its variance.
-            intensity += d_luma * d_luma.transpose() / (2.0 * luma_variance);
+            if let Some(Some(sum)) = in_cell.map(|c| &mut self.cells[c]) {
+                *sum += d_luma;
+            }
             let sigma_z = DEPTH_SIGMA_PER_Z2 * f64::from(z).powi(2);
             depth_information += d_depth * d_depth.transpose() / (2.0 * sigma_z * sigma_z);
+        }
+        // A cell's mean has 1 / n of a pixel's variance, and both images carry the
+        // noise: the difference has twice it.
+        let n = (cell * cell) as f64;
+        let mut intensity = SMatrix::<f64, 7, 7>::zeros();
+        for mean in self.cells.iter().flatten().map(|sum| sum / n) {
+            intensity += mean * mean.transpose() * n / (2.0 * luma_variance);
         }
         let known: Matrix6<f64> = intensity.fixed_view::<6, 6>(0, 0).into_owned();
         let cross: Vector6<f64> = intensity.fixed_view::<6, 1>(0, 6).into_owned();

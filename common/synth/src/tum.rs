@@ -134,7 +134,7 @@ impl SynthSequence {
              # frame: every depth node is aligned and sampled, against the newest\n\
              # keyframe's depth (see configs/synthetic.toml).\n\
              [tracking.depth]\nsource_step = 1\nindependent_pixels_per_node = 4.0\n\
-             photometric_sigma = 0.7\nkeyframe_reference = true\n",
+             photometric_sigma = 0.4\nkeyframe_reference = true\n",
             c.scene,
             c.trajectory,
             c.frames,

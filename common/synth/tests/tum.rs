@@ -109,7 +109,7 @@ fn write_tum_round_trips_images_depth_lists_and_ground_truth() {
     let depth = &marker.tracking["depth"];
     assert_eq!(depth["source_step"].as_integer(), Some(1));
     assert_eq!(depth["independent_pixels_per_node"].as_float(), Some(4.0));
-    assert_eq!(depth["photometric_sigma"].as_float(), Some(0.7));
+    assert_eq!(depth["photometric_sigma"].as_float(), Some(0.4));
     assert_eq!(depth["keyframe_reference"].as_bool(), Some(true));
     fs::remove_dir_all(&dir).unwrap();
 }
