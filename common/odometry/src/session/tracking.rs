@@ -536,6 +536,7 @@ impl TrackingSession {
 
     fn request_keyframe(&mut self, frame: &TrackedFrame, reset: bool) -> KeyFrameRequest {
         self.requested_pose = Some(frame.camera_from_world);
+        self.tracker.keep_requested_keyframe_depth(frame);
         let tracked_against = self
             .tracker
             .reference()

@@ -126,34 +126,40 @@ impl Tracker {
         motion_prior(&self.config.depth, &predicted, dt, tracked_on)
     }
 
-    /// Holds the depth of the keyframe made of the last frame, when the reference just
-    /// became it (a keyframe does not keep its depth in the map). Called before every
-    /// frame, so that each keyframe's depth is held, not only that of a keyframe whose
-    /// next frame needed the depth.
-    pub(super) fn hold_keyframe_depth(&mut self, map: &Map) {
-        if !self.config.use_depth_alignment || !self.config.depth.keyframe_reference {
+    /// Keeps the depth of `frame`, of which a keyframe was just requested, until the
+    /// map holds that keyframe: in realtime the map's answer may come after the next
+    /// frames are tracked, when the last frame is no longer the keyframe's.
+    pub fn keep_requested_keyframe_depth(&mut self, frame: &TrackedFrame) {
+        if !self.config.use_depth_alignment
+            || !self.config.depth.keyframe_reference
+            || frame.features.depth.is_empty()
+        {
             return;
         }
-        let (Some(reference), Some(last)) = (self.reference, self.last.as_ref()) else {
+        let mut grid = self
+            .requested_keyframe_depth
+            .take()
+            .map(|(_, g)| g)
+            .unwrap_or_default();
+        grid.clone_from(&frame.features.depth);
+        self.requested_keyframe_depth = Some((frame.features.id, grid));
+    }
+
+    /// Holds the requested keyframe's depth once the reference is that keyframe (a
+    /// keyframe does not keep its depth in the map). Called before every frame, so
+    /// that each keyframe's depth is held, not only that of a keyframe whose next frame
+    /// needed the depth.
+    pub(super) fn hold_keyframe_depth(&mut self, map: &Map) {
+        let (Some(reference), Some((requested, _))) =
+            (self.reference, self.requested_keyframe_depth.as_ref())
+        else {
             return;
         };
-        let held = self
-            .keyframe_depth
-            .as_ref()
-            .is_some_and(|(kf, _)| *kf == reference);
-        if held || last.features.depth.is_empty() {
-            return;
-        }
         if map
             .keyframe(reference)
-            .is_some_and(|k| k.features.id == last.features.id)
+            .is_some_and(|k| k.features.id == *requested)
+            && let Some((_, grid)) = self.requested_keyframe_depth.take()
         {
-            let mut grid = self
-                .keyframe_depth
-                .take()
-                .map(|(_, g)| g)
-                .unwrap_or_default();
-            grid.clone_from(&last.features.depth);
             self.keyframe_depth = Some((reference, grid));
         }
     }
@@ -372,19 +378,24 @@ mod tests {
         assert!(!tracked && without > 0.01, "depth alone: {without} m");
     }
 
-    #[test]
-    fn the_depth_reference_stays_the_held_keyframe_when_the_points_reference_moves_on() {
-        // The points' reference moves to an older keyframe (it shares more map points)
-        // while the last frame was tracked 5 mm off: the frame is still aligned with
-        // the keyframe whose depth the tracker holds (5 mm off with the last frame's).
+    /// A tracker aligning depth with the newest keyframe's, without a motion prior
+    /// (its centre would come from a drifted last frame too).
+    fn keyframe_reference_tracker() -> Tracker {
         let mut config = TrackingConfig {
             use_depth_alignment: true,
             ..TrackingConfig::default()
         };
         config.depth.keyframe_reference = true;
-        // No motion prior: its centre comes from the drifted last frame too.
         config.depth.motion_prior_accel_m_s2 = 0.0;
-        let mut tracker = Tracker::new(config, camera(), scale(), &GridConfig::default());
+        Tracker::new(config, camera(), scale(), &GridConfig::default())
+    }
+
+    #[test]
+    fn the_depth_reference_stays_the_held_keyframe_when_the_points_reference_moves_on() {
+        // The points' reference moves to an older keyframe (it shares more map points)
+        // while the last frame was tracked 5 mm off: the frame is still aligned with
+        // the keyframe whose depth the tracker holds (5 mm off with the last frame's).
+        let mut tracker = keyframe_reference_tracker();
         let mut map = Map::default();
         let step = gfs_core::se3::exp(&Vector6::new(0.01, -0.004, 0.006, 0.004, 0.008, -0.005));
         let mut truth = Isometry3::identity();
@@ -396,6 +407,7 @@ mod tests {
         let made_of_first = map.insert_keyframe(unlinked(frame(0, &truth, &CORNER), truth));
         let mut first = TrackedFrame::untracked(frame(0, &truth, &CORNER), truth);
         first.status = TrackingStatus::Tracked;
+        tracker.keep_requested_keyframe_depth(&first);
         tracker.finish_frame(first);
         tracker.set_reference(made_of_first);
         let mut sightings = Sightings::default();
@@ -407,6 +419,43 @@ mod tests {
         tracker.finish_frame(second);
 
         tracker.set_reference(older);
+        truth = step * truth;
+        let third = tracker.track(&map, frame(2, &truth, &CORNER), &mut sightings);
+        let error = third.camera_from_world * truth.inverse();
+        assert_eq!(third.status, TrackingStatus::Tracked);
+        assert!(error.translation.vector.norm() < 5e-4, "{error}");
+    }
+
+    #[test]
+    fn a_keyframe_that_reaches_the_tracker_after_the_next_frame_is_its_depth_reference() {
+        // Realtime: a keyframe is requested of frame 0, and the map holding it comes
+        // after frame 1 was tracked (and left 5 mm off). Frame 2 is aligned with frame
+        // 0's depth, as in lockstep, not with frame 1's.
+        let mut tracker = keyframe_reference_tracker();
+        let mut map = Map::default();
+        let step = gfs_core::se3::exp(&Vector6::new(0.01, -0.004, 0.006, 0.004, 0.008, -0.005));
+        let mut truth = Isometry3::identity();
+        let unrelated = FrameFeatures {
+            id: FrameId(1000),
+            ..FrameFeatures::default()
+        };
+        let older = map.insert_keyframe(unlinked(unrelated, step.inverse()));
+        let mut first = TrackedFrame::untracked(frame(0, &truth, &CORNER), truth);
+        first.status = TrackingStatus::Tracked;
+        tracker.keep_requested_keyframe_depth(&first);
+        tracker.finish_frame(first);
+        tracker.set_reference(older);
+        let mut sightings = Sightings::default();
+        let first_truth = truth;
+        truth = step * truth;
+        let mut second = tracker.track(&map, frame(1, &truth, &CORNER), &mut sightings);
+        assert_eq!(second.status, TrackingStatus::Tracked);
+        second.camera_from_world = Isometry3::translation(0.005, 0.0, 0.0) * truth;
+        tracker.finish_frame(second);
+
+        let made_of_first =
+            map.insert_keyframe(unlinked(frame(0, &first_truth, &CORNER), first_truth));
+        tracker.set_reference(made_of_first);
         truth = step * truth;
         let third = tracker.track(&map, frame(2, &truth, &CORNER), &mut sightings);
         let error = third.camera_from_world * truth.inverse();

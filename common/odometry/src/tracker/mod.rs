@@ -33,7 +33,7 @@ use crate::rolling_shutter;
 use crate::sightings::Sightings;
 use crate::status::TrackingStatus;
 use gfs_core::camera::PinholeCamera;
-use gfs_core::ids::{KeyFrameId, MapLineId, MapPlaneId, MapPointId};
+use gfs_core::ids::{FrameId, KeyFrameId, MapLineId, MapPlaneId, MapPointId};
 use gfs_lines::grid::GridConfig;
 use nalgebra::Isometry3;
 
@@ -93,6 +93,9 @@ pub struct Tracker {
     plane_pairs: Vec<(usize, MapPlaneId)>,
     /// The newest keyframe's depth (`[tracking.depth] keyframe_reference`).
     keyframe_depth: Option<(KeyFrameId, crate::depth_grid::DepthGrid)>,
+    /// The depth of the frame the last keyframe request was made of, until the map
+    /// holds that keyframe.
+    requested_keyframe_depth: Option<(FrameId, crate::depth_grid::DepthGrid)>,
     /// The prediction the last frame started from.
     predicted: Isometry3<f64>,
     /// Seconds from the frame before to the last frame, when the motion model had a
@@ -136,6 +139,7 @@ impl Tracker {
             plane_associator: PlaneAssociator::default(),
             plane_pairs: Vec::new(),
             keyframe_depth: None,
+            requested_keyframe_depth: None,
             predicted: Isometry3::identity(),
             predicted_over_s: None,
             tracked_information: None,
