@@ -26,7 +26,7 @@ pub use line::{LineLinearization, LineReprojection};
 pub use manhattan::{ManhattanAxis, ManhattanLinearization};
 pub use parallel::{ParallelLinearization, ParallelLines};
 pub use perpendicular::{PerpendicularLinearization, PerpendicularLines};
-pub use photometric::{IntensityGrid, Photometric, PhotometricLinearization};
+pub use photometric::{IntensityGrid, Photometric, PhotometricLinearization, PhotometricReading};
 pub use plane::{PlaneLinearization, PlaneToPlane, plane_plus, tangent_basis};
 pub use plane_axis::{PlaneAxis, PlaneAxisLinearization};
 pub use plane_pairs::{

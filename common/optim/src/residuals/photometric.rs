@@ -41,7 +41,8 @@ impl IntensityGrid<'_> {
         if !(x >= 0.0 && y >= 0.0) || self.values.len() < self.width * self.height {
             return None;
         }
-        let (i, j) = (x.floor() as usize, y.floor() as usize);
+        // Truncation is the floor here (both are non-negative), without a libm call.
+        let (i, j) = (x as usize, y as usize);
         if i + 1 >= self.width || j + 1 >= self.height {
             return None;
         }
@@ -63,12 +64,27 @@ impl IntensityGrid<'_> {
     /// border.
     #[inline]
     pub fn intensity_and_gradient(&self, u: f64, v: f64) -> Option<(f64, RowVector2<f64>)> {
+        let (value, gradient) = self.intensity_and_inner_gradient(u, v)?;
+        Some((value, gradient?))
+    }
+
+    /// Intensity at `(u, v)` (`None` outside the inner cells) and its gradient per pixel
+    /// (`None` within a cell of the border).
+    #[inline]
+    fn intensity_and_inner_gradient(
+        &self,
+        u: f64,
+        v: f64,
+    ) -> Option<(f64, Option<RowVector2<f64>>)> {
         let (x, y) = self.cell(u, v);
         let value = self.bilinear(x, y)?;
-        let dx = self.bilinear(x + 1.0, y)? - self.bilinear(x - 1.0, y)?;
-        let dy = self.bilinear(x, y + 1.0)? - self.bilinear(x, y - 1.0)?;
-        let s = f64::from(self.stride_px.max(1));
-        Some((value, RowVector2::new(dx, dy) / (2.0 * s)))
+        let gradient = || {
+            let dx = self.bilinear(x + 1.0, y)? - self.bilinear(x - 1.0, y)?;
+            let dy = self.bilinear(x, y + 1.0)? - self.bilinear(x, y - 1.0)?;
+            let s = f64::from(self.stride_px.max(1));
+            Some(RowVector2::new(dx, dy) / (2.0 * s))
+        };
+        Some((value, gradient()))
     }
 }
 
@@ -92,6 +108,45 @@ pub struct PhotometricLinearization {
     pub d_pixel: Matrix2x6<f64>,
 }
 
+/// Where a point projects in the frame and what the frame's intensity grid reads
+/// there: one reading serves the exposure gain's fit and the error at that gain.
+#[derive(Clone, Copy, Debug)]
+pub struct PhotometricReading {
+    /// The point in the camera frame.
+    pub point_in_camera: Vector3<f64>,
+    /// The frame's intensity where it projects, gray levels.
+    pub value: f64,
+    /// Its gradient, gray levels per pixel; `None` within a cell of the grid's border
+    /// or when not asked for.
+    pub gradient: Option<RowVector2<f64>>,
+}
+
+impl PhotometricReading {
+    /// Reads the frame's grid where `point_in_world` projects, with the gradient when
+    /// `with_gradient`; `None` behind the camera or off the grid.
+    #[inline]
+    pub fn new(
+        camera: &PinholeCamera,
+        image: &IntensityGrid<'_>,
+        camera_from_world: &Isometry3<f64>,
+        point_in_world: &Vector3<f64>,
+        with_gradient: bool,
+    ) -> Option<Self> {
+        let p_c = (camera_from_world * Point3::from(*point_in_world)).coords;
+        let uv = project(camera, &p_c)?;
+        let (value, gradient) = if with_gradient {
+            image.intensity_and_inner_gradient(uv.x, uv.y)?
+        } else {
+            (image.intensity(uv.x, uv.y)?, None)
+        };
+        Some(Self {
+            point_in_camera: p_c,
+            value,
+            gradient,
+        })
+    }
+}
+
 impl Photometric {
     /// The error; `None` behind the camera or off the grid.
     #[inline]
@@ -102,9 +157,15 @@ impl Photometric {
         camera_from_world: &Isometry3<f64>,
         point_in_world: &Vector3<f64>,
     ) -> Option<f64> {
-        let p_c = (camera_from_world * Point3::from(*point_in_world)).coords;
-        let uv = project(camera, &p_c)?;
-        Some(image.intensity(uv.x, uv.y)? - self.intensity)
+        let reading =
+            PhotometricReading::new(camera, image, camera_from_world, point_in_world, false)?;
+        Some(self.error_of(&reading))
+    }
+
+    /// The error of a reading.
+    #[inline]
+    pub fn error_of(&self, reading: &PhotometricReading) -> f64 {
+        reading.value - self.intensity
     }
 
     /// The error and its Jacobian; `None` behind the camera or within a cell of the
@@ -117,12 +178,24 @@ impl Photometric {
         camera_from_world: &Isometry3<f64>,
         point_in_world: &Vector3<f64>,
     ) -> Option<PhotometricLinearization> {
-        let p_c = (camera_from_world * Point3::from(*point_in_world)).coords;
-        let uv = project(camera, &p_c)?;
-        let (value, gradient) = image.intensity_and_gradient(uv.x, uv.y)?;
-        let d_pixel = projection_jacobian(camera, &p_c) * point_pose_jacobian(&p_c);
+        let reading =
+            PhotometricReading::new(camera, image, camera_from_world, point_in_world, true)?;
+        self.linearize_reading(camera, &reading)
+    }
+
+    /// The error and its Jacobian at a reading taken with its gradient; `None` without
+    /// one.
+    #[inline]
+    pub fn linearize_reading(
+        &self,
+        camera: &PinholeCamera,
+        reading: &PhotometricReading,
+    ) -> Option<PhotometricLinearization> {
+        let gradient = reading.gradient?;
+        let p_c = &reading.point_in_camera;
+        let d_pixel = projection_jacobian(camera, p_c) * point_pose_jacobian(p_c);
         Some(PhotometricLinearization {
-            error: value - self.intensity,
+            error: self.error_of(reading),
             d_pose: gradient * d_pixel,
             gradient,
             d_pixel,

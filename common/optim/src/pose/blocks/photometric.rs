@@ -7,10 +7,11 @@ use super::{Block, Gate, flagged};
 use crate::map_eigenvalues;
 use crate::pose::lm::Normal;
 use crate::pose::{PhotometricObservation, PhotometricTerm, PoseOptimizerConfig};
-use crate::residuals::Photometric;
+use crate::residuals::{Photometric, PhotometricReading};
 use crate::robust::Huber;
 use gfs_core::camera::PinholeCamera;
-use nalgebra::{Isometry3, Matrix6, Point3, Vector1};
+use nalgebra::{Isometry3, Matrix6, Vector1};
+use std::cell::RefCell;
 
 /// The photometric term, when any, with its kernel and threshold.
 pub(crate) struct PhotometricBlock<'a> {
@@ -18,6 +19,9 @@ pub(crate) struct PhotometricBlock<'a> {
     term: Option<PhotometricTerm<'a>>,
     chi2: f64,
     huber: Huber,
+    /// The readings of the flagged observations at the pose being evaluated (reused):
+    /// the gain is fitted to them and the errors taken from them, one read each.
+    readings: RefCell<Vec<Option<PhotometricReading>>>,
 }
 
 impl<'a> PhotometricBlock<'a> {
@@ -31,40 +35,46 @@ impl<'a> PhotometricBlock<'a> {
             term,
             chi2: config.photometric_chi2,
             huber: Huber::from_chi2(config.photometric_chi2),
+            readings: RefCell::new(Vec::new()),
         }
     }
 
-    /// Whitened squared error at `gain`; `None` behind the camera or off the image.
-    fn residual2(
+    /// Reads the frame's grid for every observation flagged in `inliers` at `pose`
+    /// (with the gradients when `with_gradient`) into `readings`, and returns the
+    /// frame's gain over the reference there: least squares over the readings, 1
+    /// without any.
+    fn read(
         &self,
         term: &PhotometricTerm<'_>,
         pose: &Isometry3<f64>,
-        obs: &PhotometricObservation,
-        gain: f64,
-    ) -> Option<f64> {
-        let e = Photometric {
-            intensity: gain * obs.intensity,
-        }
-        .error(self.camera, &term.image, pose, &obs.point_in_world)?;
-        Some(obs.inv_sigma2 * e * e)
-    }
-
-    /// The frame's gain over the reference at `pose`, least squares over the
-    /// observations flagged in `inliers` that project into the image; 1 without any.
-    fn gain(&self, term: &PhotometricTerm<'_>, pose: &Isometry3<f64>, inliers: &[bool]) -> f64 {
+        inliers: &[bool],
+        with_gradient: bool,
+        readings: &mut Vec<Option<PhotometricReading>>,
+    ) -> f64 {
+        readings.clear();
         let (mut cross, mut square) = (0.0, 0.0);
         for obs in flagged(term.observations, inliers) {
-            let p_c = pose * Point3::from(obs.point_in_world);
-            if let Some(value) = self
-                .camera
-                .project(&p_c)
-                .and_then(|uv| term.image.intensity(uv.x, uv.y))
-            {
-                cross += obs.inv_sigma2 * value * obs.intensity;
+            let reading = PhotometricReading::new(
+                self.camera,
+                &term.image,
+                pose,
+                &obs.point_in_world,
+                with_gradient,
+            );
+            if let Some(r) = &reading {
+                cross += obs.inv_sigma2 * r.value * obs.intensity;
                 square += obs.inv_sigma2 * obs.intensity * obs.intensity;
             }
+            readings.push(reading);
         }
         if square > 0.0 { cross / square } else { 1.0 }
+    }
+}
+
+/// The reference intensity of `obs` in the frame's exposure.
+fn at_gain(obs: &PhotometricObservation, gain: f64) -> Photometric {
+    Photometric {
+        intensity: gain * obs.intensity,
     }
 }
 
@@ -79,11 +89,14 @@ impl Block for PhotometricBlock<'_> {
         let Some(term) = &self.term else {
             return Some(sum);
         };
-        let gain = self.gain(term, pose, inliers);
+        let readings = &mut *self.readings.borrow_mut();
+        let gain = self.read(term, pose, inliers, false, readings);
         let (mut seen_cost, mut seen, mut total) = (0.0, 0usize, 0usize);
-        for obs in flagged(term.observations, inliers) {
+        for (obs, reading) in flagged(term.observations, inliers).zip(readings.iter()) {
             total += 1;
-            if let Some(s) = self.residual2(term, pose, obs, gain) {
+            if let Some(reading) = reading {
+                let e = at_gain(obs, gain).error_of(reading);
+                let s = obs.inv_sigma2 * e * e;
                 seen_cost += if robust { self.huber.cost(s) } else { s };
                 seen += 1;
             }
@@ -111,27 +124,29 @@ impl Block for PhotometricBlock<'_> {
         let Some(term) = &self.term else {
             return;
         };
-        let gain = self.gain(term, pose, inliers);
+        let readings = &mut *self.readings.borrow_mut();
+        let gain = self.read(term, pose, inliers, true, readings);
         let mut own = Normal::zeros();
         // sum w J_px^T J_px, and the weighted squared differences of the two gradients.
         let mut pixel_information = Matrix6::zeros();
         let (mut difference2, mut weight) = (0.0, 0.0);
-        for obs in flagged(term.observations, inliers) {
-            let r = Photometric {
-                intensity: gain * obs.intensity,
+        for (obs, reading) in flagged(term.observations, inliers).zip(readings.iter()) {
+            let Some(l) = reading
+                .as_ref()
+                .and_then(|r| at_gain(obs, gain).linearize_reading(self.camera, r))
+            else {
+                continue;
             };
-            if let Some(l) = r.linearize(self.camera, &term.image, pose, &obs.point_in_world) {
-                let w = own.add(
-                    &l.d_pose,
-                    &Vector1::new(l.error),
-                    obs.inv_sigma2,
-                    robust.then_some(&self.huber),
-                );
-                pixel_information += l.d_pixel.transpose() * l.d_pixel * w;
-                difference2 +=
-                    obs.inv_sigma2 * (l.gradient - obs.reference_gradient * gain).norm_squared();
-                weight += obs.inv_sigma2;
-            }
+            let w = own.add(
+                &l.d_pose,
+                &Vector1::new(l.error),
+                obs.inv_sigma2,
+                robust.then_some(&self.huber),
+            );
+            pixel_information += l.d_pixel.transpose() * l.d_pixel * w;
+            difference2 +=
+                obs.inv_sigma2 * (l.gradient - obs.reference_gradient * gain).norm_squared();
+            weight += obs.inv_sigma2;
         }
         // Each gradient component carries noise of variance sigma_g^2, which lends the
         // sums `sigma_g^2 sum w J_px^T J_px` of information the surface does not give (a
@@ -153,13 +168,13 @@ impl Block for PhotometricBlock<'_> {
             return;
         };
         // The gain of the current inliers, before they are flagged again.
-        let gain = self.gain(term, pose, inliers);
+        let gain = self.read(term, pose, inliers, false, &mut self.readings.borrow_mut());
         let threshold = gate.threshold(self.chi2);
         for (flag, obs) in inliers.iter_mut().zip(term.observations) {
             *flag = obs.inv_sigma2 > 0.0
-                && self
-                    .residual2(term, pose, obs, gain)
-                    .is_some_and(|s| s <= threshold);
+                && at_gain(obs, gain)
+                    .error(self.camera, &term.image, pose, &obs.point_in_world)
+                    .is_some_and(|e| obs.inv_sigma2 * e * e <= threshold);
         }
     }
 }
