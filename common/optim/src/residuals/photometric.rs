@@ -36,9 +36,9 @@ impl IntensityGrid<'_> {
     }
 
     /// Bilinear value at fractional cell `(x, y)`; `None` outside the grid.
-    #[inline]
+    #[inline(always)]
     fn bilinear(&self, x: f64, y: f64) -> Option<f64> {
-        if !(x >= 0.0 && y >= 0.0) || self.values.len() < self.width * self.height {
+        if !(x >= 0.0 && y >= 0.0) {
             return None;
         }
         // Truncation is the floor here (both are non-negative), without a libm call.
@@ -46,10 +46,13 @@ impl IntensityGrid<'_> {
         if i + 1 >= self.width || j + 1 >= self.height {
             return None;
         }
+        let k = j * self.width + i;
+        // The cell, its right neighbour, the row below: one bounds check for the four.
+        let cells = self.values.get(k..k + self.width + 2)?;
+        let at = |offset: usize| f64::from(cells[offset]);
         let (fx, fy) = (x - i as f64, y - j as f64);
-        let at = |i: usize, j: usize| f64::from(self.values[j * self.width + i]);
-        let top = at(i, j) * (1.0 - fx) + at(i + 1, j) * fx;
-        let bottom = at(i, j + 1) * (1.0 - fx) + at(i + 1, j + 1) * fx;
+        let top = at(0) * (1.0 - fx) + at(1) * fx;
+        let bottom = at(self.width) * (1.0 - fx) + at(self.width + 1) * fx;
         Some(top * (1.0 - fy) + bottom * fy)
     }
 
