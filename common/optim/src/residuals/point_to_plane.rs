@@ -50,12 +50,26 @@ impl PointToPlane {
         surface_in_world: &Vector3<f64>,
         normal_in_world: &Vector3<f64>,
     ) -> PointToPlaneLinearization {
+        self.linearize_with_offset_gradient(camera_from_world, surface_in_world, normal_in_world)
+            .0
+    }
+
+    /// [`Self::linearize`] and [`Self::offset_gradient`], the plane moved into the
+    /// camera once for both.
+    #[inline]
+    pub fn linearize_with_offset_gradient(
+        &self,
+        camera_from_world: &Isometry3<f64>,
+        surface_in_world: &Vector3<f64>,
+        normal_in_world: &Vector3<f64>,
+    ) -> (PointToPlaneLinearization, Vector6<f64>) {
         let (s_c, n_c) = plane_in_camera(camera_from_world, surface_in_world, normal_in_world);
         let r = n_c.cross(&self.point_in_camera);
-        PointToPlaneLinearization {
+        let linearization = PointToPlaneLinearization {
             error: n_c.dot(&(self.point_in_camera - s_c)),
             d_pose: Matrix1x6::new(-n_c.x, -n_c.y, -n_c.z, r.x, r.y, r.z),
-        }
+        };
+        (linearization, self.offset_gradient_at(&s_c, &n_c))
     }
 
     /// The distance along the normal and the offset along the plane,
@@ -84,10 +98,17 @@ impl PointToPlane {
         normal_in_world: &Vector3<f64>,
     ) -> Vector6<f64> {
         let (s_c, n_c) = plane_in_camera(camera_from_world, surface_in_world, normal_in_world);
+        self.offset_gradient_at(&s_c, &n_c)
+    }
+
+    /// [`Self::offset_gradient`] for the plane through `s_c` with normal `n_c`, camera
+    /// frame.
+    #[inline]
+    fn offset_gradient_at(&self, s_c: &Vector3<f64>, n_c: &Vector3<f64>) -> Vector6<f64> {
         let d = self.point_in_camera - s_c;
         let e = n_c.dot(&d);
         let t = d - n_c * e;
-        let turn = t.cross(&s_c) - n_c.cross(&t) * e;
+        let turn = t.cross(s_c) - n_c.cross(&t) * e;
         Vector6::new(-t.x, -t.y, -t.z, turn.x, turn.y, turn.z)
     }
 }
