@@ -9,8 +9,8 @@ use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{MapLineId, MapPointId};
 use gfs_optim::residuals::PosePrior;
 use gfs_optim::{
-    DepthObservation, LineObservation, PhotometricObservation, PhotometricTerm, PlaneObservation,
-    PointObservation, PoseOptimizerConfig, PoseResult, SurfaceObservations,
+    DepthObservation, LineObservation, PhotometricObservation, PhotometricScratch, PhotometricTerm,
+    PlaneObservation, PointObservation, PoseOptimizerConfig, PoseResult, SurfaceObservations,
     optimize_pose_with_depth,
 };
 use nalgebra::{Isometry3, Matrix6};
@@ -53,6 +53,7 @@ pub struct PoseSolver {
     depth: Vec<DepthObservation>,
     planes: Vec<PlaneObservation>,
     photometric: Vec<PhotometricObservation>,
+    photometric_scratch: PhotometricScratch,
     prior: Option<PosePrior>,
     result: PoseResult,
 }
@@ -71,6 +72,7 @@ impl PoseSolver {
             depth: Vec::new(),
             planes: Vec::new(),
             photometric: Vec::new(),
+            photometric_scratch: PhotometricScratch::default(),
             prior: None,
             result: PoseResult::default(),
         }
@@ -187,6 +189,7 @@ impl PoseSolver {
                     .map(|image| PhotometricTerm {
                         image,
                         observations: &self.photometric,
+                        scratch: &self.photometric_scratch,
                     }),
                 prior: self.prior,
             },

@@ -74,9 +74,9 @@ pub use ba::{
 };
 pub use degeneracy::{PoseConstraint, analyse_constraint, map_eigenvalues};
 pub use pose::{
-    DepthObservation, LineObservation, PhotometricObservation, PhotometricTerm, PlaneObservation,
-    PointObservation, PoseOptimizerConfig, PoseResult, SurfaceObservations, optimize_pose,
-    optimize_pose_with_depth,
+    DepthObservation, LineObservation, PhotometricObservation, PhotometricScratch, PhotometricTerm,
+    PlaneObservation, PointObservation, PoseOptimizerConfig, PoseResult, SurfaceObservations,
+    optimize_pose, optimize_pose_with_depth,
 };
 pub use pose_graph::{
     CHI2_6DOF_95, PoseGraph, PoseGraphConfig, PoseGraphError, PoseGraphKernel, PoseGraphReport,

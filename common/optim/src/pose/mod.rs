@@ -20,8 +20,8 @@ mod result;
 
 pub use config::PoseOptimizerConfig;
 pub use observations::{
-    DepthObservation, LineObservation, PhotometricObservation, PhotometricTerm, PlaneObservation,
-    PointObservation, SurfaceObservations,
+    DepthObservation, LineObservation, PhotometricObservation, PhotometricScratch, PhotometricTerm,
+    PlaneObservation, PointObservation, SurfaceObservations,
 };
 pub use result::PoseResult;
 

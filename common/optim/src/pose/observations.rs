@@ -1,10 +1,11 @@
 //! The public inputs of a pose optimisation: one observation type per term kind, all
 //! plain data borrowed for the call.
 
-use crate::residuals::{IntensityGrid, PlaneToPlane, PosePrior};
+use crate::residuals::{IntensityGrid, PhotometricReading, PlaneToPlane, PosePrior};
 #[cfg(doc)]
 use crate::residuals::{LineReprojection, Photometric, PointToPlane, StereoPointReprojection};
 use nalgebra::{Isometry3, RowVector2, SMatrix, Vector2, Vector3, Vector4};
+use std::cell::RefCell;
 
 #[cfg(doc)]
 use super::PoseResult;
@@ -85,6 +86,15 @@ pub struct PhotometricTerm<'a> {
     pub image: IntensityGrid<'a>,
     /// The reference points.
     pub observations: &'a [PhotometricObservation],
+    /// Where the optimiser keeps the points' readings of the pose being evaluated:
+    /// owned by the caller, so that its buffer is reused from frame to frame.
+    pub scratch: &'a PhotometricScratch,
+}
+
+/// The readings of a [`PhotometricTerm`]'s points at one pose (reused buffer).
+#[derive(Debug, Default)]
+pub struct PhotometricScratch {
+    pub(crate) readings: RefCell<Vec<Option<PhotometricReading>>>,
 }
 
 /// A plane of the frame associated with a map plane (see [`PlaneToPlane`]).

@@ -11,7 +11,6 @@ use crate::residuals::{Photometric, PhotometricReading};
 use crate::robust::Huber;
 use gfs_core::camera::PinholeCamera;
 use nalgebra::{Isometry3, Matrix6, Vector1};
-use std::cell::RefCell;
 
 /// The photometric term, when any, with its kernel and threshold.
 pub(crate) struct PhotometricBlock<'a> {
@@ -19,9 +18,6 @@ pub(crate) struct PhotometricBlock<'a> {
     term: Option<PhotometricTerm<'a>>,
     chi2: f64,
     huber: Huber,
-    /// The readings of the flagged observations at the pose being evaluated (reused):
-    /// the gain is fitted to them and the errors taken from them, one read each.
-    readings: RefCell<Vec<Option<PhotometricReading>>>,
 }
 
 impl<'a> PhotometricBlock<'a> {
@@ -35,14 +31,13 @@ impl<'a> PhotometricBlock<'a> {
             term,
             chi2: config.photometric_chi2,
             huber: Huber::from_chi2(config.photometric_chi2),
-            readings: RefCell::new(Vec::new()),
         }
     }
 
     /// Reads the frame's grid for every observation flagged in `inliers` at `pose`
     /// (with the gradients when `with_gradient`) into `readings`, and returns the
     /// frame's gain over the reference there: least squares over the readings, 1
-    /// without any.
+    /// without any. The errors are then taken from the same readings, one read each.
     fn read(
         &self,
         term: &PhotometricTerm<'_>,
@@ -89,7 +84,7 @@ impl Block for PhotometricBlock<'_> {
         let Some(term) = &self.term else {
             return Some(sum);
         };
-        let readings = &mut *self.readings.borrow_mut();
+        let readings = &mut *term.scratch.readings.borrow_mut();
         let gain = self.read(term, pose, inliers, false, readings);
         let (mut seen_cost, mut seen, mut total) = (0.0, 0usize, 0usize);
         for (obs, reading) in flagged(term.observations, inliers).zip(readings.iter()) {
@@ -124,7 +119,7 @@ impl Block for PhotometricBlock<'_> {
         let Some(term) = &self.term else {
             return;
         };
-        let readings = &mut *self.readings.borrow_mut();
+        let readings = &mut *term.scratch.readings.borrow_mut();
         let gain = self.read(term, pose, inliers, true, readings);
         let mut own = Normal::zeros();
         // sum w J_px^T J_px, and the weighted squared differences of the two gradients.
@@ -168,7 +163,13 @@ impl Block for PhotometricBlock<'_> {
             return;
         };
         // The gain of the current inliers, before they are flagged again.
-        let gain = self.read(term, pose, inliers, false, &mut self.readings.borrow_mut());
+        let gain = self.read(
+            term,
+            pose,
+            inliers,
+            false,
+            &mut term.scratch.readings.borrow_mut(),
+        );
         let threshold = gate.threshold(self.chi2);
         for (flag, obs) in inliers.iter_mut().zip(term.observations) {
             *flag = obs.inv_sigma2 > 0.0
@@ -182,8 +183,8 @@ impl Block for PhotometricBlock<'_> {
 #[cfg(test)]
 mod tests {
     use crate::pose::{
-        DepthObservation, PhotometricObservation, PhotometricTerm, PoseOptimizerConfig, PoseResult,
-        SurfaceObservations, optimize_pose_with_depth,
+        DepthObservation, PhotometricObservation, PhotometricScratch, PhotometricTerm,
+        PoseOptimizerConfig, PoseResult, SurfaceObservations, optimize_pose_with_depth,
     };
     use crate::residuals::testing::{SplitMix64, vga_camera};
     use crate::residuals::{IntensityGrid, PosePrior};
@@ -292,6 +293,7 @@ mod tests {
                 photometric: Some(PhotometricTerm {
                     image: grid(frame_values),
                     observations: &photometric,
+                    scratch: &PhotometricScratch::default(),
                 }),
                 prior,
                 ..SurfaceObservations::default()
