@@ -9,7 +9,7 @@ use gfs_planes::NormalEstimator;
 use nalgebra::Vector3;
 
 /// 3D points and unit normals of a frame on a regular pixel grid, camera frame.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DepthGrid {
     /// Pixels between nodes; node `(i, j)` covers pixels `[i s, (i + 1) s) x [j s, ...)`.
     pub stride_px: u32,
@@ -28,6 +28,26 @@ pub struct DepthGrid {
     /// Pixels per intensity cell side (a divisor of `stride_px`); 0 = `stride_px`.
     #[serde(default)]
     pub intensity_cell_px: u32,
+}
+
+/// `clone_from` copies into the buffers already there (the derived one allocates anew):
+/// the tracker keeps a keyframe's grid this way at every keyframe.
+impl Clone for DepthGrid {
+    fn clone(&self) -> Self {
+        let mut grid = Self::default();
+        grid.clone_from(self);
+        grid
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.stride_px = source.stride_px;
+        self.width = source.width;
+        self.height = source.height;
+        self.points.clone_from(&source.points);
+        self.normals.clone_from(&source.normals);
+        self.intensity.clone_from(&source.intensity);
+        self.intensity_cell_px = source.intensity_cell_px;
+    }
 }
 
 impl DepthGrid {

@@ -136,13 +136,9 @@ impl Tracker {
         {
             return;
         }
-        let mut grid = self
-            .requested_keyframe_depth
-            .take()
-            .map(|(_, g)| g)
-            .unwrap_or_default();
+        let (requested, grid) = &mut self.requested_keyframe_depth;
         grid.clone_from(&frame.features.depth);
-        self.requested_keyframe_depth = Some((frame.features.id, grid));
+        *requested = Some(frame.features.id);
     }
 
     /// Holds the requested keyframe's depth once the reference is that keyframe (a
@@ -150,17 +146,20 @@ impl Tracker {
     /// that each keyframe's depth is held, not only that of a keyframe whose next frame
     /// needed the depth.
     pub(super) fn hold_keyframe_depth(&mut self, map: &Map) {
-        let (Some(reference), Some((requested, _))) =
-            (self.reference, self.requested_keyframe_depth.as_ref())
-        else {
+        let (requested, grid) = &mut self.requested_keyframe_depth;
+        let (Some(reference), Some(frame)) = (self.reference, *requested) else {
             return;
         };
         if map
             .keyframe(reference)
-            .is_some_and(|k| k.features.id == *requested)
-            && let Some((_, grid)) = self.requested_keyframe_depth.take()
+            .is_some_and(|k| k.features.id == frame)
         {
-            self.keyframe_depth = Some((reference, grid));
+            *requested = None;
+            let depth = std::mem::take(grid);
+            // The depth held before becomes the next request's buffer.
+            if let Some((_, before)) = self.keyframe_depth.replace((reference, depth)) {
+                self.requested_keyframe_depth.1 = before;
+            }
         }
     }
 

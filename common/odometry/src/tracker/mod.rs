@@ -93,9 +93,9 @@ pub struct Tracker {
     plane_pairs: Vec<(usize, MapPlaneId)>,
     /// The newest keyframe's depth (`[tracking.depth] keyframe_reference`).
     keyframe_depth: Option<(KeyFrameId, crate::depth_grid::DepthGrid)>,
-    /// The depth of the frame the last keyframe request was made of, until the map
-    /// holds that keyframe.
-    requested_keyframe_depth: Option<(FrameId, crate::depth_grid::DepthGrid)>,
+    /// The frame the last keyframe request was made of, until the map holds that
+    /// keyframe, and its depth (the buffer stays for the next request).
+    requested_keyframe_depth: (Option<FrameId>, crate::depth_grid::DepthGrid),
     /// The prediction the last frame started from.
     predicted: Isometry3<f64>,
     /// Seconds from the frame before to the last frame, when the motion model had a
@@ -139,7 +139,7 @@ impl Tracker {
             plane_associator: PlaneAssociator::default(),
             plane_pairs: Vec::new(),
             keyframe_depth: None,
-            requested_keyframe_depth: None,
+            requested_keyframe_depth: Default::default(),
             predicted: Isometry3::identity(),
             predicted_over_s: None,
             tracked_information: None,

@@ -26,6 +26,10 @@ pub struct PointToPlaneLinearization {
     pub error: f64,
     /// d(error)/d(delta) for the left pose perturbation, 1x6.
     pub d_pose: Matrix1x6<f64>,
+    /// `J^T t`, the gradient of `|t|^2 / 2` for the offset `t` along the plane, over
+    /// the left perturbation. `q_c - s_c` moves by `[-I, [s_c]x]` and the normal by
+    /// `[0, -[n_c]x]`; with `n_c . t = 0` the product is `(-t; t x s_c - e n_c x t)`.
+    pub offset_gradient: Vector6<f64>,
 }
 
 impl PointToPlane {
@@ -42,7 +46,7 @@ impl PointToPlane {
         n_c.dot(&(self.point_in_camera - s_c))
     }
 
-    /// The error and its Jacobian.
+    /// The error, its Jacobian and the gradient of the offset along the plane.
     #[inline]
     pub fn linearize(
         &self,
@@ -50,26 +54,15 @@ impl PointToPlane {
         surface_in_world: &Vector3<f64>,
         normal_in_world: &Vector3<f64>,
     ) -> PointToPlaneLinearization {
-        self.linearize_with_offset_gradient(camera_from_world, surface_in_world, normal_in_world)
-            .0
-    }
-
-    /// [`Self::linearize`] and [`Self::offset_gradient`], the plane moved into the
-    /// camera once for both.
-    #[inline]
-    pub fn linearize_with_offset_gradient(
-        &self,
-        camera_from_world: &Isometry3<f64>,
-        surface_in_world: &Vector3<f64>,
-        normal_in_world: &Vector3<f64>,
-    ) -> (PointToPlaneLinearization, Vector6<f64>) {
         let (s_c, n_c) = plane_in_camera(camera_from_world, surface_in_world, normal_in_world);
         let r = n_c.cross(&self.point_in_camera);
-        let linearization = PointToPlaneLinearization {
-            error: n_c.dot(&(self.point_in_camera - s_c)),
+        let (e, t) = self.distance_and_offset(&s_c, &n_c);
+        let turn = t.cross(&s_c) - n_c.cross(&t) * e;
+        PointToPlaneLinearization {
+            error: e,
             d_pose: Matrix1x6::new(-n_c.x, -n_c.y, -n_c.z, r.x, r.y, r.z),
-        };
-        (linearization, self.offset_gradient_at(&s_c, &n_c))
+            offset_gradient: Vector6::new(-t.x, -t.y, -t.z, turn.x, turn.y, turn.z),
+        }
     }
 
     /// The distance along the normal and the offset along the plane,
@@ -82,34 +75,16 @@ impl PointToPlane {
         normal_in_world: &Vector3<f64>,
     ) -> (f64, Vector3<f64>) {
         let (s_c, n_c) = plane_in_camera(camera_from_world, surface_in_world, normal_in_world);
+        self.distance_and_offset(&s_c, &n_c)
+    }
+
+    /// [`Self::error_and_offset`] for the plane through `s_c` with normal `n_c`, both in
+    /// the camera frame.
+    #[inline]
+    fn distance_and_offset(&self, s_c: &Vector3<f64>, n_c: &Vector3<f64>) -> (f64, Vector3<f64>) {
         let d = self.point_in_camera - s_c;
         let e = n_c.dot(&d);
         (e, d - n_c * e)
-    }
-
-    /// `J^T t`, the gradient of `|t|^2 / 2` for the offset `t` along the plane, over
-    /// the left perturbation. `q_c - s_c` moves by `[-I, [s_c]x]` and the normal by
-    /// `[0, -[n_c]x]`; with `n_c . t = 0` the product is `(-t; t x s_c - e n_c x t)`.
-    #[inline]
-    pub fn offset_gradient(
-        &self,
-        camera_from_world: &Isometry3<f64>,
-        surface_in_world: &Vector3<f64>,
-        normal_in_world: &Vector3<f64>,
-    ) -> Vector6<f64> {
-        let (s_c, n_c) = plane_in_camera(camera_from_world, surface_in_world, normal_in_world);
-        self.offset_gradient_at(&s_c, &n_c)
-    }
-
-    /// [`Self::offset_gradient`] for the plane through `s_c` with normal `n_c`, camera
-    /// frame.
-    #[inline]
-    fn offset_gradient_at(&self, s_c: &Vector3<f64>, n_c: &Vector3<f64>) -> Vector6<f64> {
-        let d = self.point_in_camera - s_c;
-        let e = n_c.dot(&d);
-        let t = d - n_c * e;
-        let turn = t.cross(s_c) - n_c.cross(&t) * e;
-        Vector6::new(-t.x, -t.y, -t.z, turn.x, turn.y, turn.z)
     }
 }
 
@@ -166,7 +141,7 @@ mod tests {
             let r = PointToPlane {
                 point_in_camera: (t_cw * Point3::from(s_w)).coords + rng.vector3(0.05),
             };
-            let gradient = r.offset_gradient(&t_cw, &s_w, &n_w);
+            let gradient = r.linearize(&t_cw, &s_w, &n_w).offset_gradient;
             let (e, t) = r.error_and_offset(&t_cw, &s_w, &n_w);
             assert!((e - r.error(&t_cw, &s_w, &n_w)).abs() < 1e-12);
             assert!(t.dot(&(t_cw.rotation * n_w)).abs() < 1e-12);

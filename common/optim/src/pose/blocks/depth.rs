@@ -76,11 +76,7 @@ impl Block for DepthBlock<'_> {
             let pair = PointToPlane {
                 point_in_camera: obs.point_in_camera,
             };
-            let (l, offset_gradient) = pair.linearize_with_offset_gradient(
-                pose,
-                &obs.surface_in_world,
-                &obs.normal_in_world,
-            );
+            let l = pair.linearize(pose, &obs.surface_in_world, &obs.normal_in_world);
             let w = normal.add(
                 &l.d_pose,
                 &Vector1::new(l.error),
@@ -91,7 +87,7 @@ impl Block for DepthBlock<'_> {
             // keeps it, so that it stays positive (the tracker discounts it from the
             // information on its own, `normal_noise_information`).
             if obs.normal_tilt_variance > 0.0 {
-                normal.g -= offset_gradient * (w * obs.normal_tilt_variance);
+                normal.g -= l.offset_gradient * (w * obs.normal_tilt_variance);
             }
         }
     }

@@ -162,20 +162,23 @@ impl Block for PhotometricBlock<'_> {
         let Some(term) = &self.term else {
             return;
         };
-        // The gain of the current inliers, before they are flagged again.
-        let gain = self.read(
-            term,
-            pose,
-            inliers,
-            false,
-            &mut term.scratch.readings.borrow_mut(),
-        );
+        // The gain of the current inliers, before they are flagged again; their
+        // readings serve again, the others are read here.
+        let readings = &mut *term.scratch.readings.borrow_mut();
+        let gain = self.read(term, pose, inliers, false, readings);
+        let mut inlier_readings = readings.iter();
         let threshold = gate.threshold(self.chi2);
         for (flag, obs) in inliers.iter_mut().zip(term.observations) {
+            let reading = if *flag {
+                inlier_readings.next().copied().flatten()
+            } else {
+                PhotometricReading::new(self.camera, &term.image, pose, &obs.point_in_world, false)
+            };
             *flag = obs.inv_sigma2 > 0.0
-                && at_gain(obs, gain)
-                    .error(self.camera, &term.image, pose, &obs.point_in_world)
-                    .is_some_and(|e| obs.inv_sigma2 * e * e <= threshold);
+                && reading.is_some_and(|r| {
+                    let e = at_gain(obs, gain).error_of(&r);
+                    obs.inv_sigma2 * e * e <= threshold
+                });
         }
     }
 }
