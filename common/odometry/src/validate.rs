@@ -247,6 +247,8 @@ fn validate_ba(ba: &BaConfig) -> Result<(), FieldError> {
         0.0,
         1000.0,
     )?;
+    t.not_below("settled_step_m", ba.settled_step_m, 0.0)?;
+    t.not_below("settled_step_rad", ba.settled_step_rad, 0.0)?;
     for (name, value) in [
         ("point_chi2", ba.point_chi2),
         ("point_depth_chi2", ba.point_depth_chi2),

@@ -387,3 +387,49 @@ fn a_reused_adjuster_matches_a_fresh_one() {
         assert_eq!(kept.problem.lines, fresh.problem.lines, "problem {k}");
     }
 }
+
+/// A pass ends once a step moves no free pose by `settled_step_m` / `settled_step_rad`:
+/// fewer iterations than iterating until the cost stops falling, and the same poses
+/// to well within their accuracy.
+#[test]
+fn a_pass_ends_once_its_poses_settle() {
+    let until_the_cost_stops = BaConfig {
+        settled_step_m: 0.0,
+        settled_step_rad: 0.0,
+        ..BaConfig::default()
+    };
+    for seed in 0..3 {
+        let mut settled = BaScene::new(&spec(), &mut Rng::new(seed));
+        let mut strict = BaScene::new(&spec(), &mut Rng::new(seed));
+        let quick = run(&mut settled, &BaConfig::default());
+        let full = run(&mut strict, &until_the_cost_stops);
+        let apart = settled
+            .problem
+            .poses
+            .iter()
+            .zip(&strict.problem.poses)
+            .map(|(a, b)| {
+                let d = a.camera_from_world * b.camera_from_world.inverse();
+                (d.translation.vector.norm(), d.rotation.angle())
+            })
+            .fold((0.0f64, 0.0f64), |m, d| (m.0.max(d.0), m.1.max(d.1)));
+        println!(
+            "seed {seed}: {} -> {} iterations, poses apart by {:.4} mm {:.5} mrad, cost {:.3} \
+             -> {:.3}, points rms {:.3} -> {:.3} mm",
+            full.iterations,
+            quick.iterations,
+            apart.0 * 1e3,
+            apart.1 * 1e3,
+            full.final_cost,
+            quick.final_cost,
+            strict.point_rms() * 1e3,
+            settled.point_rms() * 1e3
+        );
+        assert!(quick.converged);
+        assert!(quick.iterations < full.iterations);
+        assert!(apart.0 < 1e-4 && apart.1 < 1e-4, "{apart:?}");
+        // The points are left where the settled poses put them, a step or two short.
+        assert!(quick.final_cost < full.final_cost * 1.001);
+        assert!(settled.point_rms() < strict.point_rms() * 1.01);
+    }
+}

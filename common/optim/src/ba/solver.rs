@@ -130,12 +130,12 @@ impl LocalBundleAdjuster {
             let flags = &mut result.inliers;
             flags.reset(problem);
             terms.mark_invalid(&self.values, flags);
-            let first = self.run_lm(&terms, flags, config.first_pass_iterations, stop)?;
+            let first = self.run_lm(&terms, flags, config.first_pass_iterations, config, stop)?;
             terms.classify(&self.values, flags);
             let second = if first.interrupted {
                 Pass::ended(0, false)
             } else {
-                self.run_lm(&terms, flags, config.second_pass_iterations, stop)?
+                self.run_lm(&terms, flags, config.second_pass_iterations, config, stop)?
             };
             terms.classify(&self.values, flags);
             result.iterations = first.iterations + second.iterations;
@@ -162,6 +162,7 @@ impl LocalBundleAdjuster {
         terms: &Terms<'_>,
         flags: &BaFlags,
         max_iterations: usize,
+        config: &BaConfig,
         stop: &dyn Fn() -> bool,
     ) -> Result<Pass, BaError> {
         if max_iterations == 0 {
@@ -210,12 +211,27 @@ impl LocalBundleAdjuster {
                 return Ok(Pass::ended(iteration, true));
             };
             std::mem::swap(&mut self.values, &mut self.candidate);
-            if self.linearization.cost - cost <= RELATIVE_COST_TOLERANCE * self.linearization.cost {
+            if self.linearization.cost - cost <= RELATIVE_COST_TOLERANCE * self.linearization.cost
+                || self.poses_settled(problem, config)
+            {
                 return Ok(Pass::ended(iteration, true));
             }
             terms.linearize(&self.values, flags, &mut self.linearization);
         }
         Ok(Pass::ended(max_iterations, false))
+    }
+
+    /// True when the last step moved free poses, and none by `settled_step_m` /
+    /// `settled_step_rad` or more.
+    fn poses_settled(&self, problem: &BaProblem, config: &BaConfig) -> bool {
+        let mut free = (self.step.pose.iter().zip(&problem.poses))
+            .filter(|(_, pose)| !pose.fixed)
+            .peekable();
+        free.peek().is_some()
+            && free.all(|(d, _)| {
+                d.fixed_rows::<3>(0).norm() < config.settled_step_m
+                    && d.fixed_rows::<3>(3).norm() < config.settled_step_rad
+            })
     }
 
     /// `candidate = values ⊕ step` (left perturbation for poses, additive for points and
