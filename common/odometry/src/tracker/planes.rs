@@ -8,14 +8,16 @@ use crate::map::Map;
 impl Tracker {
     /// Pairs the frame's planes with the map's at its current pose and sets them on the
     /// solver for the next optimisations (until [`Self::clear_planes`]); the pairs are
-    /// recorded in the frame's `plane_ids`. Returns the number of pairs.
-    pub(super) fn pair_planes(&mut self, map: &Map, frame: &mut TrackedFrame) -> usize {
+    /// recorded in the frame's `plane_ids`. Returns true when they differ from the pairs
+    /// set before.
+    pub(super) fn pair_planes(&mut self, map: &Map, frame: &mut TrackedFrame) -> bool {
         let (observations, pairs) = self.plane_associator.associate(
             &self.config.planes,
             &frame.features.planes,
             &frame.camera_from_world,
             map,
         );
+        let changed = self.plane_pairs != pairs;
         self.solver.set_planes(observations);
         self.plane_pairs.clear();
         self.plane_pairs.extend_from_slice(pairs);
@@ -25,7 +27,7 @@ impl Tracker {
                 *slot = Some(*id);
             }
         }
-        pairs.len()
+        changed
     }
 
     /// Keeps in the frame's `plane_ids` the pairs the last optimisation kept as inliers.
@@ -44,12 +46,15 @@ impl Tracker {
     }
 
     /// Re-optimises a frame tracked on features with its planes added: associated at the
-    /// feature pose, optimised, associated again at the refined pose (a plane the first
-    /// pose put outside the gates may now be within). The planes stay set on the solver.
+    /// feature pose and optimised, then associated again at the refined pose (a plane the
+    /// first pose put outside the gates may now be within) and optimised again if that
+    /// changed the pairs (the same pairs would find the same optimum again). The planes
+    /// stay set on the solver.
     pub(super) fn refine_with_planes(&mut self, map: &Map, frame: &mut TrackedFrame) {
+        self.plane_pairs.clear();
         for _ in 0..PLANE_PASSES {
-            if self.pair_planes(map, frame) == 0 {
-                return;
+            if !self.pair_planes(map, frame) || self.plane_pairs.is_empty() {
+                break;
             }
             self.optimise(map, frame);
         }
