@@ -78,6 +78,18 @@ pub fn pose_error(a: &Isometry3<f64>, b: &Isometry3<f64>) -> (f64, f64) {
     ((ca - cb).norm(), dr.angle().to_degrees())
 }
 
+/// The largest [`pose_error`] of `problem`'s poses against `truth`, pose by pose.
+fn max_pose_error(problem: &gfs_optim::BaProblem, truth: &[Isometry3<f64>]) -> (f64, f64) {
+    problem
+        .poses
+        .iter()
+        .zip(truth)
+        .map(|(p, t)| pose_error(&p.camera_from_world, t))
+        .fold((0.0, 0.0), |(a, b), (c, d)| {
+            (f64::max(a, c), f64::max(b, d))
+        })
+}
+
 /// World point seen at pixel `uv` at `depth` by `camera_from_world`.
 pub fn point_at_pixel(
     camera: &PinholeCamera,
@@ -315,14 +327,18 @@ impl BaScene {
 
     /// Largest camera-centre error (m) and rotation error (deg) over the poses.
     pub fn max_pose_error(&self) -> (f64, f64) {
-        self.problem
+        max_pose_error(&self.problem, &self.true_poses)
+    }
+
+    /// The largest [`pose_error`] between this scene's estimated poses and `other`'s.
+    pub fn max_pose_difference(&self, other: &BaScene) -> (f64, f64) {
+        let others: Vec<_> = other
+            .problem
             .poses
             .iter()
-            .zip(&self.true_poses)
-            .map(|(p, t)| pose_error(&p.camera_from_world, t))
-            .fold((0.0, 0.0), |(a, b), (c, d)| {
-                (f64::max(a, c), f64::max(b, d))
-            })
+            .map(|p| p.camera_from_world)
+            .collect();
+        max_pose_error(&self.problem, &others)
     }
 
     /// Mean angle (deg) between the estimated lines and their true axes.
