@@ -98,12 +98,16 @@ pub fn needs_keyframe(
     // points too: that is how a low-texture view gets its first landmarks.
     let on_depth_alone = (frame.inliers.depth > 0 || frame.inliers.planes > 0)
         && frame.status == TrackingStatus::Tracked;
-    let posed = frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME || on_depth_alone;
+    // A `degraded` frame leaving its depth reference renews it (its own surfaces fix
+    // its pose, or the reference is leaving its view).
+    let posed =
+        frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME || on_depth_alone || leaves_depth_reference;
     // Tracked on depth with no map point in view: its close keypoints are the map's
     // only chance to get points here.
     let unmapped = on_depth_alone && frame.inliers.points == 0 && close_untracked > 0;
     // In a room without keypoints no rule above fires before the frame goes
-    // `degraded`, and a `degraded` frame without points makes no keyframe.
+    // `degraded`, and a `degraded` frame without points makes a keyframe only when it
+    // leaves its depth reference.
     (points_low || lines_low || need_close || timeout || unmapped || leaves_depth_reference)
         && posed
 }
@@ -196,17 +200,20 @@ mod tests {
     }
 
     #[test]
-    fn a_view_off_the_reference_depth_asks_for_a_keyframe_while_tracked() {
+    fn a_view_off_the_reference_depth_asks_for_a_keyframe() {
         let (map, kf, mut frame) = setup();
         // The features ask for none (the frame sees what the reference saw): the
         // depth's judgement alone decides.
         frame.inliers.depth = 500;
         assert!(!decide_on_depth(&map, Some(kf), &frame, 1, false));
         assert!(decide_on_depth(&map, Some(kf), &frame, 1, true));
-        // Without points to anchor it, only a `tracked` frame's pose is worth a keyframe.
+        // A `degraded` frame without points makes one only when its depth leaves the
+        // reference (`degraded_frame_renews`), though its points fell below the
+        // reference's.
         frame.inliers.points = 0;
         frame.status = TrackingStatus::Degraded;
-        assert!(!decide_on_depth(&map, Some(kf), &frame, 1, true));
+        assert!(!decide_on_depth(&map, Some(kf), &frame, 1, false));
+        assert!(decide_on_depth(&map, Some(kf), &frame, 1, true));
     }
 
     #[test]

@@ -111,6 +111,7 @@ impl TrackingConfig {
         d.not_below("renewal_sigma_m", self.depth.renewal_sigma_m, 0.0)?;
         d.positive("renewal_own_sigma_m", self.depth.renewal_own_sigma_m)?;
         d.fraction("renewal_overlap", self.depth.renewal_overlap)?;
+        d.fraction("renewal_floor_overlap", self.depth.renewal_floor_overlap)?;
         d.not_below("photometric_sigma", self.depth.photometric_sigma, 0.0)?;
         d.not_below(
             "photometric_position_sigma_px",

@@ -115,6 +115,12 @@ impl DepthAssociator {
         &self.observations
     }
 
+    /// The normals' tilt variance per tangent direction the last pass measured, rad^2
+    /// ([`tangent_variance_from_angles`]).
+    pub fn normal_variance(&self) -> f64 {
+        self.normal_variance
+    }
+
     /// The share of the frame's sampled nodes the last pass paired (0 without nodes).
     pub fn overlap(&self) -> f64 {
         if self.source_nodes == 0 {

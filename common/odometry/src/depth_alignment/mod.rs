@@ -22,7 +22,7 @@
 
 use crate::depth_grid::DepthGrid;
 use gfs_optim::residuals::PointToPlane;
-use nalgebra::{Isometry3, Matrix6};
+use nalgebra::{Isometry3, Matrix3, Matrix6};
 use serde::Deserialize;
 
 /// Parameters of the depth alignment (the odometry's TOML table `[tracking.depth]`).
@@ -144,6 +144,12 @@ pub struct DepthAlignmentConfig {
     /// pair, a weak direction is the surfaces', which a new reference does not fix:
     /// with 1.0 the 24 sequences' mean went to 5.56 mm, slow 5 22.3 -> 27.7 mm).
     pub renewal_overlap: f64,
+    /// Share of a `degraded` frame's depth nodes paired with the reference below which
+    /// the reference is leaving its view: the frame becomes a keyframe whatever its own
+    /// surfaces fix (`renewal_sigma_m` 0 turns this off too); default 0.5 (unseen fast
+    /// seed 27 with all terms: 10.0 mm, 39 frames `degraded`, -> 3.8 mm, 8; at 0.3: 4.2
+    /// mm, 12).
+    pub renewal_floor_overlap: f64,
 }
 
 impl Default for DepthAlignmentConfig {
@@ -168,6 +174,7 @@ impl Default for DepthAlignmentConfig {
             renewal_sigma_m: 0.004,
             renewal_own_sigma_m: 0.006,
             renewal_overlap: 0.85,
+            renewal_floor_overlap: 0.5,
         }
     }
 }
@@ -179,17 +186,29 @@ pub fn kinect_depth_sigma(z: f64) -> f64 {
 
 /// The information a frame's depth would give its own pose, were every sampled node
 /// paired with itself: whether its surfaces can determine a pose at all (a frame of
-/// one wall cannot).
-pub fn self_information(config: &DepthAlignmentConfig, grid: &DepthGrid) -> Matrix6<f64> {
+/// one wall cannot). Less, with `normal_variance` > 0 (rad^2 per tangent direction,
+/// [`DepthAssociator::normal_variance`]), what its normals' noise lends it along its
+/// surfaces, as [`DepthAssociator::normal_noise_information`] takes it out of a pose's:
+/// with their noise in, the nodes of `gfsvo synth`'s bare walls hold their own slide to
+/// 4-5 mm.
+pub fn self_information(
+    config: &DepthAlignmentConfig,
+    grid: &DepthGrid,
+    normal_variance: f64,
+) -> Matrix6<f64> {
     let mut h = Matrix6::zeros();
     let step = config.source_step.max(1);
     let width = grid.width as usize;
     for j in (step / 2..grid.height as usize).step_by(step) {
         for i in (step / 2..width).step_by(step) {
             if let Some((q, n)) = grid.node(j * width + i) {
+                let w = 1.0 / (2.0 * kinect_depth_sigma(q.z).powi(2));
                 let l =
                     PointToPlane { point_in_camera: q }.linearize(&Isometry3::identity(), &q, &n);
-                h += l.d_pose.transpose() * l.d_pose / (2.0 * kinect_depth_sigma(q.z).powi(2));
+                h += l.d_pose.transpose() * l.d_pose * w;
+                let tangent = Matrix3::identity() - n * n.transpose();
+                let mut translation = h.fixed_view_mut::<3, 3>(0, 0);
+                translation -= tangent * (w * normal_variance);
             }
         }
     }
@@ -215,7 +234,36 @@ pub fn needs_new_reference(
     config.renewal_sigma_m > 0.0
         && overlap < config.renewal_overlap
         && sigma(pose_information) > config.renewal_sigma_m
-        && sigma(&self_information(config, grid)) < config.renewal_own_sigma_m
+        && sigma(&self_information(config, grid, 0.0)) < config.renewal_own_sigma_m
+}
+
+/// Whether a `degraded` frame tracked on its depth (`grid`, of which `overlap` is the
+/// share of nodes paired with the reference, its normals' tilt variance
+/// `normal_variance`) should renew its depth reference: it is moving off the reference
+/// (`overlap` below `renewal_overlap`) and its own surfaces, less what their normals'
+/// noise lends them, fix a pose within `renewal_own_sigma_m` (a corner the reference
+/// does not hold; a bare wall's slide, or two walls' along their edge, stays free), or
+/// the reference is leaving its view (`overlap` below `renewal_floor_overlap`). A
+/// `degraded` frame that never renewed stayed `degraded` while its view turned onto a
+/// corner of its own, or was lost once the reference left it (unseen fast seeds 28 and
+/// 27: 44 and 39 frames `degraded`).
+pub fn degraded_frame_renews(
+    config: &DepthAlignmentConfig,
+    overlap: f64,
+    grid: &DepthGrid,
+    normal_variance: f64,
+) -> bool {
+    let own_sigma = || {
+        gfs_optim::analyse_constraint(
+            &self_information(config, grid, normal_variance),
+            config.lever_arm_m,
+            config.max_sigma_m,
+        )
+        .worst_sigma_m
+    };
+    config.renewal_sigma_m > 0.0
+        && overlap < config.renewal_overlap
+        && (overlap < config.renewal_floor_overlap || own_sigma() < config.renewal_own_sigma_m)
 }
 
 mod associator;

@@ -18,7 +18,7 @@ fn a_corner_determines_a_pose_and_a_corridor_leaves_its_axis_free() {
     let config = DepthAlignmentConfig::default();
     let analyse = |grid: &DepthGrid| {
         gfs_optim::analyse_constraint(
-            &self_information(&config, grid),
+            &self_information(&config, grid, 0.0),
             config.lever_arm_m,
             config.max_sigma_m,
         )
@@ -439,4 +439,85 @@ fn a_shifted_wall_pairs_every_node_within_the_gate_with_its_distance() {
         1.0,
     );
     assert!(none.is_empty());
+}
+
+/// `grid` with every normal tilted by `tilt_rad` towards a random direction across it:
+/// a tilt variance of `tilt_rad^2 / 2` per tangent direction.
+fn tilt_normals(grid: &mut DepthGrid, tilt_rad: f32, seed: u64) {
+    let mut rng = gfs_core::rng::SplitMix64::keyed(seed, &[]);
+    for normal in grid
+        .normals
+        .iter_mut()
+        .filter(|n| n[2] != 0.0 || n[0] != 0.0)
+    {
+        let n = Vector3::from(*normal);
+        let across = n
+            .cross(&Vector3::z())
+            .try_normalize(1e-6)
+            .unwrap_or(Vector3::x());
+        let angle = std::f32::consts::TAU * rng.uniform() as f32;
+        let direction =
+            nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(n), angle)
+                * across;
+        *normal = (n * tilt_rad.cos() + direction * tilt_rad.sin()).into();
+    }
+}
+
+#[test]
+fn a_degraded_frame_renews_on_a_corner_of_its_own_or_when_its_reference_leaves() {
+    let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+    // Every node, as `gfsvo synth`'s config aligns them; normals tilted by 0.08 rad
+    // (that config's bare walls measure a tilt variance of 0.003 rad^2).
+    let config = DepthAlignmentConfig {
+        source_step: 1,
+        ..DepthAlignmentConfig::default()
+    };
+    let tilt = 0.08f32;
+    let normal_variance = f64::from(tilt * tilt) / 2.0;
+    let mut bare_wall = wall(&camera, 2.0);
+    tilt_normals(&mut bare_wall, tilt, 1);
+    let mut corner = planes_depth(&camera, &Isometry3::identity(), &CORNER);
+    tilt_normals(&mut corner, tilt, 2);
+    let moving_off = 0.6;
+    // The wall's tilted normals alone would hold its slide within the 6 mm its own
+    // surfaces must: less their noise it is free, and the frame keeps its reference.
+    assert!(degraded_frame_renews(&config, moving_off, &bare_wall, 0.0));
+    assert!(!degraded_frame_renews(
+        &config,
+        moving_off,
+        &bare_wall,
+        normal_variance
+    ));
+    // A corner holds its pose less the noise too.
+    assert!(degraded_frame_renews(
+        &config,
+        moving_off,
+        &corner,
+        normal_variance
+    ));
+    // Where the reference leaves the view, the wall renews it as well.
+    assert!(degraded_frame_renews(
+        &config,
+        0.4,
+        &bare_wall,
+        normal_variance
+    ));
+    // A view that still pairs with its reference keeps it; so does every view with the
+    // renewal off.
+    assert!(!degraded_frame_renews(
+        &config,
+        0.9,
+        &corner,
+        normal_variance
+    ));
+    let never = DepthAlignmentConfig {
+        renewal_sigma_m: 0.0,
+        ..config.clone()
+    };
+    assert!(!degraded_frame_renews(
+        &never,
+        0.4,
+        &bare_wall,
+        normal_variance
+    ));
 }

@@ -579,8 +579,11 @@ impl TrackingSession {
         }
         let mut information = nalgebra::Matrix6::zeros();
         if tracking.use_depth_alignment && !frame.features.depth.is_empty() {
-            information +=
-                crate::depth_alignment::self_information(&tracking.depth, &frame.features.depth);
+            information += crate::depth_alignment::self_information(
+                &tracking.depth,
+                &frame.features.depth,
+                0.0,
+            );
         }
         if tracking.use_planes {
             information += crate::plane_association::self_information(

@@ -4,7 +4,7 @@
 //! determine.
 
 use super::{TrackedFrame, Tracker};
-use crate::depth_alignment::needs_new_reference;
+use crate::depth_alignment::{degraded_frame_renews, needs_new_reference};
 use crate::depth_grid::DepthGrid;
 use crate::map::Map;
 use crate::motion_prior::{PriorFor, motion_prior};
@@ -176,17 +176,29 @@ impl Tracker {
         .is_determined()
     }
 
-    /// Whether `frame`, just tracked and `Tracked` with depth pairs, has moved off its
-    /// depth reference and should become a keyframe ([`needs_new_reference`]).
+    /// Whether `frame`, just tracked with depth pairs, has moved off its depth reference
+    /// and should become a keyframe: when `Tracked`, [`needs_new_reference`]; when
+    /// `Degraded`, [`degraded_frame_renews`].
     pub fn leaves_depth_reference(&self, frame: &TrackedFrame) -> bool {
-        frame.status == TrackingStatus::Tracked
-            && frame.inliers.depth > 0
-            && needs_new_reference(
-                &self.config.depth,
+        if frame.inliers.depth == 0 {
+            return false;
+        }
+        let (config, overlap) = (&self.config.depth, self.depth_associator.overlap());
+        match frame.status {
+            TrackingStatus::Tracked => needs_new_reference(
+                config,
                 &self.information_less_normal_noise(&frame.camera_from_world),
-                self.depth_associator.overlap(),
+                overlap,
                 &frame.features.depth,
-            )
+            ),
+            TrackingStatus::Degraded => degraded_frame_renews(
+                config,
+                overlap,
+                &frame.features.depth,
+                self.depth_associator.normal_variance(),
+            ),
+            TrackingStatus::Predicted | TrackingStatus::Relocalised => false,
+        }
     }
 
     /// What the last optimisation's data determined of `frame`'s pose: less the normals'
