@@ -445,11 +445,7 @@ fn a_shifted_wall_pairs_every_node_within_the_gate_with_its_distance() {
 /// a tilt variance of `tilt_rad^2 / 2` per tangent direction.
 fn tilt_normals(grid: &mut DepthGrid, tilt_rad: f32, seed: u64) {
     let mut rng = gfs_core::rng::SplitMix64::keyed(seed, &[]);
-    for normal in grid
-        .normals
-        .iter_mut()
-        .filter(|n| n[2] != 0.0 || n[0] != 0.0)
-    {
+    for normal in grid.normals.iter_mut().filter(|n| **n != [0.0; 3]) {
         let n = Vector3::from(*normal);
         let across = n
             .cross(&Vector3::z())

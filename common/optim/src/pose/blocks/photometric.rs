@@ -102,9 +102,9 @@ impl Block for PhotometricBlock<'_> {
         // The points were paired in view of the pose the optimisation started from: a
         // pose that leaves at most half of them in view has escaped their cost rather
         // than fitted them, and is refused. Costed, the points out of view let a frame
-        // whose start was off by half the paint's period slide out of the image along a
-        // direction the depth leaves free (unseen fast seed 13's second frame, tracked
-        // on depth without a motion prior: 700 m away).
+        // whose start read them far off slide out of the image along a direction the
+        // depth leaves free (unseen fast seed 13's second frame, tracked on depth
+        // without a motion prior: 700 m away; the test below: 68 m).
         if 2 * seen <= total {
             return None;
         }
@@ -348,7 +348,7 @@ mod tests {
     #[test]
     fn a_frame_half_a_period_off_does_not_slide_out_of_the_image() {
         // Paint of 0.5 m period across x and y, the frame 0.25 m along x: at the start
-        // every point reads the opposite stripe. Costed as points out of view, the points
+        // every point reads the opposite stripe across x. Costed as points out of view, the points
         // gave way to a slide of 68 m and a turn of 47 degrees that took them all out of
         // the image; refused, the pose stays within their reach (here by its start: the
         // opposite stripes pull it neither way along x).
