@@ -227,14 +227,9 @@ pub fn needs_new_reference(
     overlap: f64,
     grid: &DepthGrid,
 ) -> bool {
-    let sigma = |information: &Matrix6<f64>| {
-        gfs_optim::analyse_constraint(information, config.lever_arm_m, config.max_sigma_m)
-            .worst_sigma_m
-    };
-    config.renewal_sigma_m > 0.0
-        && overlap < config.renewal_overlap
-        && sigma(pose_information) > config.renewal_sigma_m
-        && sigma(&self_information(config, grid, 0.0)) < config.renewal_own_sigma_m
+    moving_off_reference(config, overlap)
+        && worst_sigma_m(config, pose_information) > config.renewal_sigma_m
+        && worst_sigma_m(config, &self_information(config, grid, 0.0)) < config.renewal_own_sigma_m
 }
 
 /// Whether a `degraded` frame tracked on its depth (`grid`, of which `overlap` is the
@@ -253,17 +248,22 @@ pub fn degraded_frame_renews(
     grid: &DepthGrid,
     normal_variance: f64,
 ) -> bool {
-    let own_sigma = || {
-        gfs_optim::analyse_constraint(
-            &self_information(config, grid, normal_variance),
-            config.lever_arm_m,
-            config.max_sigma_m,
-        )
-        .worst_sigma_m
-    };
-    config.renewal_sigma_m > 0.0
-        && overlap < config.renewal_overlap
-        && (overlap < config.renewal_floor_overlap || own_sigma() < config.renewal_own_sigma_m)
+    moving_off_reference(config, overlap)
+        && (overlap < config.renewal_floor_overlap
+            || worst_sigma_m(config, &self_information(config, grid, normal_variance))
+                < config.renewal_own_sigma_m)
+}
+
+/// With the renewal on, whether a view pairing `overlap` of its nodes with the
+/// reference is moving off it.
+fn moving_off_reference(config: &DepthAlignmentConfig, overlap: f64) -> bool {
+    config.renewal_sigma_m > 0.0 && overlap < config.renewal_overlap
+}
+
+/// The standard deviation of the direction `information` holds least, metres at the
+/// lever arm.
+fn worst_sigma_m(config: &DepthAlignmentConfig, information: &Matrix6<f64>) -> f64 {
+    gfs_optim::analyse_constraint(information, config.lever_arm_m, config.max_sigma_m).worst_sigma_m
 }
 
 mod associator;
