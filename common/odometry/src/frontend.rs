@@ -98,21 +98,29 @@ impl StructureExtractor {
         self.manhattan.restore(previous);
     }
 
-    /// The Manhattan axes of a frame from its depth and its valid 3D lines (camera
-    /// frame); `predicted_rotation` (`current_from_previous`) keeps the axes' identity.
+    /// The frame's normals and BFS planes from its depth (camera frame), for
+    /// [`Self::planes`], [`Self::depth_grid`] and [`Self::estimate_axes`].
     ///
     /// # Errors
     /// [`FrontendError::Planes`] when the depth image does not have the camera's size.
-    pub fn extract(
+    pub fn extract_surfaces(
         &mut self,
         depth: &ImageView<'_, f32>,
         camera: &PinholeCamera,
-        lines3d: &[Line3],
-        predicted_rotation: Option<&Rotation3<f64>>,
-    ) -> Result<Option<ManhattanAxes>, FrontendError> {
+    ) -> Result<(), FrontendError> {
         self.planes
             .extract(depth, camera, &mut self.plane_out)
-            .map_err(|e| FrontendError::Planes(e.to_string()))?;
+            .map_err(|e| FrontendError::Planes(e.to_string()))
+    }
+
+    /// The Manhattan axes of the frame whose surfaces were extracted last, from its
+    /// planes and its valid 3D lines (camera frame); `predicted_rotation`
+    /// (`current_from_previous`) keeps the axes' identity.
+    pub fn estimate_axes(
+        &mut self,
+        lines3d: &[Line3],
+        predicted_rotation: Option<&Rotation3<f64>>,
+    ) -> Option<ManhattanAxes> {
         self.directions.clear();
         self.weights.clear();
         for l in lines3d.iter().filter(|l| l.is_valid()) {
@@ -120,12 +128,12 @@ impl StructureExtractor {
             self.weights.push(d.norm());
             self.directions.push(d);
         }
-        Ok(self.manhattan.estimate(
+        self.manhattan.estimate(
             &self.plane_out,
             &self.directions,
             &self.weights,
             predicted_rotation,
-        ))
+        )
     }
 }
 
@@ -150,7 +158,8 @@ pub struct Frontend {
 
 impl Frontend {
     /// Builds the three extractors. `use_lines` / `use_manhattan` are the ablation
-    /// switches: a switched-off stage is not run and contributes nothing.
+    /// switches: lines switched off are not extracted, axes switched off are not
+    /// estimated (the surfaces still are when the depth grid or the planes are kept).
     ///
     /// # Errors
     /// [`FrontendError`] when a stage's config is invalid.
@@ -179,14 +188,14 @@ impl Frontend {
     }
 
     /// Whether the frames carry their depth grid ([`FrameFeatures::depth`], for
-    /// `[tracking] use_depth_alignment`; it needs the planes stage, `use_manhattan`).
+    /// `[tracking] use_depth_alignment`), with or without the Manhattan axes.
     /// Off by default: the grid is 115 kB a frame.
     pub fn set_keep_depth(&mut self, keep: bool) {
         self.keep_depth = keep;
     }
 
     /// Whether the frames carry their BFS planes ([`FrameFeatures::planes`], for
-    /// `[tracking] use_planes`; it needs the planes stage, `use_manhattan`).
+    /// `[tracking] use_planes`), with or without the Manhattan axes.
     pub fn set_keep_planes(&mut self, keep: bool) {
         self.keep_planes = keep;
     }
@@ -223,13 +232,15 @@ impl Frontend {
         let mut manhattan = None;
         let mut depth_grid = DepthGrid::default();
         let mut planes = Vec::new();
-        if self.use_manhattan {
-            manhattan = self.structure.extract(
-                &depth,
-                &self.camera,
-                &self.line_out.lines3d,
-                predicted_rotation,
-            )?;
+        // The surfaces serve the axes, the depth alignment and the planes, each
+        // switched on its own.
+        if self.use_manhattan || self.keep_depth || self.keep_planes {
+            self.structure.extract_surfaces(&depth, &self.camera)?;
+            if self.use_manhattan {
+                manhattan = self
+                    .structure
+                    .estimate_axes(&self.line_out.lines3d, predicted_rotation);
+            }
             if self.keep_depth {
                 self.structure.depth_grid(&mut depth_grid);
                 depth_grid.sample_intensity(&gray, DepthGrid::INTENSITY_CELL_PX);
@@ -255,5 +266,66 @@ impl Frontend {
             planes,
             depth: depth_grid,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gfs_core::Image;
+
+    /// A camera facing a wall 2 m away, with a floor 0.8 m below it and a side wall
+    /// 1 m to its left: three perpendicular planes, no texture.
+    fn corner(camera: &PinholeCamera) -> (Image<u8>, Image<f32>) {
+        let (w, h) = (camera.width, camera.height);
+        let mut depth: Image<f32> = Image::new(w, h);
+        for v in 0..h {
+            for u in 0..w {
+                let x = (u as f64 - camera.cx) / camera.fx;
+                let y = (v as f64 - camera.cy) / camera.fy;
+                let mut z: f64 = 2.0;
+                if y > 0.0 {
+                    z = z.min(0.8 / y);
+                }
+                if x < 0.0 {
+                    z = z.min(-1.0 / x);
+                }
+                depth.set(u, v, z as f32);
+            }
+        }
+        let mut gray: Image<u8> = Image::new(w, h);
+        gray.fill(128);
+        (gray, depth)
+    }
+
+    fn extract(use_manhattan: bool) -> FrameFeatures {
+        let camera = PinholeCamera::new(525.0, 525.0, 319.5, 239.5, 640, 480);
+        let (gray, depth) = corner(&camera);
+        let mut frontend = Frontend::new(
+            camera,
+            &OrbConfig::default(),
+            &LineConfig::default(),
+            &PlaneConfig::default(),
+            false,
+            use_manhattan,
+        )
+        .unwrap();
+        frontend.set_keep_depth(true);
+        frontend.set_keep_planes(true);
+        frontend
+            .extract(FrameId(0), 0.0, gray.view(), depth.view(), None)
+            .unwrap()
+    }
+
+    #[test]
+    fn the_depth_and_plane_terms_get_their_surfaces_without_the_manhattan_axes() {
+        let with_axes = extract(true);
+        let without = extract(false);
+        assert!(with_axes.manhattan.is_some());
+        assert!(without.manhattan.is_none());
+        assert_eq!(without.planes.len(), 3);
+        assert_eq!(without.planes, with_axes.planes);
+        assert!(without.depth.has_depth());
+        assert_eq!(without.depth, with_axes.depth);
     }
 }

@@ -1,6 +1,7 @@
 //! `planes`: plane normals and the frame's Manhattan axes from its depth and its 3D
 //! lines (from the `lines` stage), with the axes' identity kept by the tracker's
-//! predicted rotation (from the last pose).
+//! predicted rotation (from the last pose); and the frame's surfaces (BFS planes, depth
+//! grid) for the tracker's plane and depth terms, with or without the axes.
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
 use crate::wire::{WireLine, WireManhattan, WirePose};
@@ -39,7 +40,8 @@ const SURFACES_INITIAL_BYTES: usize = 1 << 17;
 const CHECKPOINT: &str = "planes.bin";
 
 /// Runs the planes stage until told to stop. With the Manhattan axes switched off
-/// (ablation) it publishes "no axes" for every frame.
+/// (ablation) it publishes "no axes" for every frame, and still extracts the surfaces
+/// when the planes or the depth alignment are on.
 ///
 /// # Errors
 /// [`StageError`] when the config is invalid or a topic fails.
@@ -96,81 +98,81 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             continue;
         }
         let mut axes = None;
-        let mut extracted = false;
         structure.surfaces(false, false, &mut surfaces);
-        if use_manhattan {
-            // Lockstep: the pose of frame k-1 was published before frame k, but a
-            // restarted stage may see the frame before the pose topic's history.
-            if ctx.mode() == Mode::Lockstep && id > 0 {
-                let deadline = Instant::now() + ctx.feature_deadline();
-                while predicted.frame.is_none_or(|f| f + 1 < id)
-                    && Instant::now() < deadline
-                    && !ctx.stopping()
-                {
-                    poses.wait(POLL)?;
-                    predicted.take(&poses)?;
-                }
-                if predicted.frame.is_none_or(|f| f + 1 < id) {
-                    // Said aloud: the axes then start from an older prediction, so the
-                    // run is no longer reproducible bit for bit.
-                    tracing::warn!(
-                        frame = id,
-                        "planes: the previous frame's pose missing at the deadline; \
-                         predicting from an older one"
-                    );
-                }
-            }
-            let deadline = Instant::now() + ctx.feature_deadline();
-            while !lines3d.contains_key(&id) && Instant::now() < deadline && !ctx.stopping() {
-                while let Some(s) = lines.receive()? {
-                    let (frame, published) = (
-                        s.user_header().frame_id,
-                        s.user_header().stamp(Stage::Lines).finished_ns,
-                    );
-                    if frame >= id {
-                        let lines = s.payload().iter().map(WireLine::line3).collect();
-                        lines3d.insert(frame, (published, lines));
+        if use_manhattan || surfaces_publisher.is_some() {
+            // Only the axes need the lines and, in lockstep, the last pose.
+            let (published, frame_lines) = if use_manhattan {
+                // Lockstep: the pose of frame k-1 was published before frame k, but a
+                // restarted stage may see the frame before the pose topic's history.
+                if ctx.mode() == Mode::Lockstep && id > 0 {
+                    let deadline = Instant::now() + ctx.feature_deadline();
+                    while predicted.frame.is_none_or(|f| f + 1 < id)
+                        && Instant::now() < deadline
+                        && !ctx.stopping()
+                    {
+                        poses.wait(POLL)?;
+                        predicted.take(&poses)?;
+                    }
+                    if predicted.frame.is_none_or(|f| f + 1 < id) {
+                        // Said aloud: the axes then start from an older prediction, so the
+                        // run is no longer reproducible bit for bit.
+                        tracing::warn!(
+                            frame = id,
+                            "planes: the previous frame's pose missing at the deadline; \
+                             predicting from an older one"
+                        );
                     }
                 }
-                if !lines3d.contains_key(&id) {
-                    lines.wait(POLL)?;
+                let deadline = Instant::now() + ctx.feature_deadline();
+                while !lines3d.contains_key(&id) && Instant::now() < deadline && !ctx.stopping() {
+                    while let Some(s) = lines.receive()? {
+                        let (frame, published) = (
+                            s.user_header().frame_id,
+                            s.user_header().stamp(Stage::Lines).finished_ns,
+                        );
+                        if frame >= id {
+                            let lines = s.payload().iter().map(WireLine::line3).collect();
+                            lines3d.insert(frame, (published, lines));
+                        }
+                    }
+                    if !lines3d.contains_key(&id) {
+                        lines.wait(POLL)?;
+                    }
                 }
-            }
-            let (published, frame_lines) = lines3d.remove(&id).unwrap_or_else(|| {
-                tracing::warn!(
-                    frame = id,
-                    "planes: no lines before the deadline; planes only"
-                );
+                let taken = lines3d.remove(&id).unwrap_or_else(|| {
+                    tracing::warn!(
+                        frame = id,
+                        "planes: no lines before the deadline; planes only"
+                    );
+                    (0, Vec::new())
+                });
+                lines3d.retain(|k, _| *k > id);
+                taken
+            } else {
                 (0, Vec::new())
-            });
-            lines3d.retain(|k, _| *k > id);
+            };
             mark_ready(&mut header, Stage::Planes, published);
             header.mark_started(Stage::Planes);
             match frame_view(&sample) {
-                Ok(frame) => {
-                    axes = structure
-                        .extract(
-                            &frame.depth(),
-                            &camera,
-                            &frame_lines,
-                            predicted.rotation.as_ref(),
-                        )
-                        .inspect(|_| extracted = true)
-                        .unwrap_or_else(|e| {
-                            tracing::warn!(frame = id, "planes: {e}");
-                            None
-                        });
-                    // The surfaces are taken while the frame is at hand: the depth grid
-                    // carries the gray level of each node's cell.
-                    if extracted && surfaces_publisher.is_some() {
-                        structure.surfaces(send_planes, send_depth, &mut surfaces);
-                        if send_depth {
-                            surfaces
-                                .depth
-                                .sample_intensity(&frame.gray(), DepthGrid::INTENSITY_CELL_PX);
+                Ok(frame) => match structure.extract_surfaces(&frame.depth(), &camera) {
+                    Ok(()) => {
+                        if use_manhattan {
+                            axes =
+                                structure.estimate_axes(&frame_lines, predicted.rotation.as_ref());
+                        }
+                        // The surfaces are taken while the frame is at hand: the depth
+                        // grid carries the gray level of each node's cell.
+                        if surfaces_publisher.is_some() {
+                            structure.surfaces(send_planes, send_depth, &mut surfaces);
+                            if send_depth {
+                                surfaces
+                                    .depth
+                                    .sample_intensity(&frame.gray(), DepthGrid::INTENSITY_CELL_PX);
+                            }
                         }
                     }
-                }
+                    Err(e) => tracing::warn!(frame = id, "planes: {e}"),
+                },
                 Err(e) => tracing::warn!(frame = id, "planes: bad frame: {e}"),
             }
         } else {
