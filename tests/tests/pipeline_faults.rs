@@ -5,7 +5,8 @@
 //! supervisor restarted the stage each time, and nothing of the run is left (no
 //! process, no iceoryx2 file or shared memory); with no frame past its deadline the
 //! trajectory is even byte-identical to the undisturbed one. Also: lockstep, threads
-//! and inline give the same trajectory. (A mapper killed around a loop:
+//! and inline give the same trajectory, and the depth and plane terms get their
+//! surfaces without the Manhattan axes. (A mapper killed around a loop:
 //! `loop_faults.rs`.)
 //!
 //! The test drives the real executables (`gfsvo`, `gfsvo-*`): it builds them once with
@@ -214,29 +215,51 @@ fn lockstep_threads_and_inline_give_the_same_trajectory() {
     assert_eq!(trajectory("threads"), inline);
 }
 
+/// The trajectory of the first 60 frames in `mode` with `extra` switches and the
+/// config's `[tracking]` table `tracking` (`tag` keeps the runs apart).
+fn surfaces_trajectory(tag: &str, mode: &str, tracking: &str, extra: &[&str]) -> String {
+    let config = out_dir(&format!("surfaces_{tag}.toml"));
+    let camera = std::fs::read_to_string(sequence().join("synthetic.toml")).unwrap();
+    std::fs::write(&config, format!("{camera}\n[tracking]\n{tracking}\n")).unwrap();
+    let (id, out) = (
+        run_id(&format!("{tag}{}", &mode[..3])),
+        out_dir(&format!("surfaces_{tag}_{mode}")),
+    );
+    let mut args = vec!["--mode", mode, "--frames", "60", "--config"];
+    args.push(config.to_str().unwrap());
+    args.extend_from_slice(extra);
+    let o = finish(start(binaries(), &id, &out, &args), &out, &id);
+    assert!(o.success, "{tag} {mode}: {}", o.stderr);
+    std::fs::read_to_string(out.join("trajectory.txt")).unwrap()
+}
+
+const DEPTH_AND_PLANES: &str = "use_depth_alignment = true\nuse_planes = true";
+
 #[test]
 fn with_depth_and_planes_lockstep_and_inline_give_the_same_trajectory() {
     // The planes and depth grid travel from the planes stage to the tracker in the
     // pipeline; in-process the front end hands them over: the same poses either way.
-    let config = out_dir("surfaces_config.toml");
-    let camera = std::fs::read_to_string(sequence().join("synthetic.toml")).unwrap();
-    std::fs::write(
-        &config,
-        format!("{camera}\n[tracking]\nuse_depth_alignment = true\nuse_planes = true\n"),
-    )
-    .unwrap();
-    let config = config.to_str().unwrap().to_owned();
-    let trajectory = |mode: &str| {
-        let (id, out) = (
-            run_id(&format!("s{}", &mode[..3])),
-            out_dir(&format!("surfaces_{mode}")),
-        );
-        let args = ["--mode", mode, "--frames", "60", "--config", &config];
-        let o = finish(start(binaries(), &id, &out, &args), &out, &id);
-        assert!(o.success, "{mode}: {}", o.stderr);
-        std::fs::read_to_string(out.join("trajectory.txt")).unwrap()
-    };
-    let inline = trajectory("inline");
+    let inline = surfaces_trajectory("s", "inline", DEPTH_AND_PLANES, &[]);
     assert_eq!(inline.lines().filter(|l| !l.starts_with('#')).count(), 60);
-    assert_eq!(trajectory("lockstep"), inline);
+    assert_eq!(
+        surfaces_trajectory("s", "lockstep", DEPTH_AND_PLANES, &[]),
+        inline
+    );
+}
+
+#[test]
+fn without_the_manhattan_axes_the_depth_and_plane_terms_still_get_their_surfaces() {
+    // `--no-manhattan` once switched off the whole planes stage, and with it the
+    // surfaces: the depth and plane terms then changed no pose.
+    let axes_off = ["--no-manhattan"];
+    let inline = surfaces_trajectory("n", "inline", DEPTH_AND_PLANES, &axes_off);
+    let features_only = surfaces_trajectory("f", "inline", "", &axes_off);
+    assert!(
+        inline != features_only,
+        "the depth and plane terms changed no pose"
+    );
+    assert_eq!(
+        surfaces_trajectory("n", "lockstep", DEPTH_AND_PLANES, &axes_off),
+        inline
+    );
 }
