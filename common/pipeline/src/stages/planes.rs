@@ -30,6 +30,72 @@ impl Prediction {
         }
         Ok(())
     }
+
+    /// Lockstep: waits until the pose of frame `id - 1` is in, up to the feature
+    /// deadline. It was published before frame `id`, but a restarted stage may see the
+    /// frame before the pose topic's history.
+    fn await_previous<S: Service>(
+        &mut self,
+        ctx: &StageContext<S>,
+        poses: &TopicSubscriber<S, WirePose>,
+        id: u64,
+    ) -> Result<(), StageError> {
+        if ctx.mode() != Mode::Lockstep || id == 0 {
+            return Ok(());
+        }
+        let deadline = Instant::now() + ctx.feature_deadline();
+        while self.frame.is_none_or(|f| f + 1 < id) && Instant::now() < deadline && !ctx.stopping()
+        {
+            poses.wait(POLL)?;
+            self.take(poses)?;
+        }
+        if self.frame.is_none_or(|f| f + 1 < id) {
+            // Said aloud: the axes then start from an older prediction, so the run is no
+            // longer reproducible bit for bit.
+            tracing::warn!(
+                frame = id,
+                "planes: the previous frame's pose missing at the deadline; \
+                 predicting from an older one"
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Frame `id`'s 3D lines and the time the `lines` stage published them, waited for up
+/// to the feature deadline (none then: the axes come from the planes only). Later
+/// frames' lines received meanwhile stay in `lines3d`.
+fn take_lines<S: Service>(
+    ctx: &StageContext<S>,
+    lines: &TopicSubscriber<S, WireLine>,
+    lines3d: &mut BTreeMap<u64, (u64, Vec<Line3>)>,
+    id: u64,
+) -> Result<(u64, Vec<Line3>), StageError> {
+    let deadline = Instant::now() + ctx.feature_deadline();
+    while !lines3d.contains_key(&id) && Instant::now() < deadline && !ctx.stopping() {
+        while let Some(s) = lines.receive()? {
+            let (frame, published) = (
+                s.user_header().frame_id,
+                s.user_header().stamp(Stage::Lines).finished_ns,
+            );
+            if frame >= id {
+                let lines = s.payload().iter().map(WireLine::line3).collect();
+                lines3d.insert(frame, (published, lines));
+            }
+        }
+        if !lines3d.contains_key(&id) {
+            lines.wait(POLL)?;
+        }
+    }
+    let taken = lines3d.remove(&id).unwrap_or_else(|| {
+        tracing::warn!(
+            frame = id,
+            "planes: no lines before the deadline; planes only"
+        );
+        (0, Vec::new())
+    });
+    lines3d.retain(|k, _| *k > id);
+    Ok(taken)
 }
 
 /// Initial size of a surfaces message: the 80 x 60 depth grid of a VGA frame (115 kB)
@@ -102,52 +168,8 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         if use_manhattan || surfaces_publisher.is_some() {
             // Only the axes need the lines and, in lockstep, the last pose.
             let (published, frame_lines) = if use_manhattan {
-                // Lockstep: the pose of frame k-1 was published before frame k, but a
-                // restarted stage may see the frame before the pose topic's history.
-                if ctx.mode() == Mode::Lockstep && id > 0 {
-                    let deadline = Instant::now() + ctx.feature_deadline();
-                    while predicted.frame.is_none_or(|f| f + 1 < id)
-                        && Instant::now() < deadline
-                        && !ctx.stopping()
-                    {
-                        poses.wait(POLL)?;
-                        predicted.take(&poses)?;
-                    }
-                    if predicted.frame.is_none_or(|f| f + 1 < id) {
-                        // Said aloud: the axes then start from an older prediction, so the
-                        // run is no longer reproducible bit for bit.
-                        tracing::warn!(
-                            frame = id,
-                            "planes: the previous frame's pose missing at the deadline; \
-                             predicting from an older one"
-                        );
-                    }
-                }
-                let deadline = Instant::now() + ctx.feature_deadline();
-                while !lines3d.contains_key(&id) && Instant::now() < deadline && !ctx.stopping() {
-                    while let Some(s) = lines.receive()? {
-                        let (frame, published) = (
-                            s.user_header().frame_id,
-                            s.user_header().stamp(Stage::Lines).finished_ns,
-                        );
-                        if frame >= id {
-                            let lines = s.payload().iter().map(WireLine::line3).collect();
-                            lines3d.insert(frame, (published, lines));
-                        }
-                    }
-                    if !lines3d.contains_key(&id) {
-                        lines.wait(POLL)?;
-                    }
-                }
-                let taken = lines3d.remove(&id).unwrap_or_else(|| {
-                    tracing::warn!(
-                        frame = id,
-                        "planes: no lines before the deadline; planes only"
-                    );
-                    (0, Vec::new())
-                });
-                lines3d.retain(|k, _| *k > id);
-                taken
+                predicted.await_previous(ctx, &poses, id)?;
+                take_lines(ctx, &lines, &mut lines3d, id)?
             } else {
                 (0, Vec::new())
             };
