@@ -31,6 +31,9 @@ pub struct KeyframeContext<'a> {
     pub frames_since_keyframe: u32,
     /// Depth below which a keypoint is close (`[tracking] close_depth_m`).
     pub close_depth_m: f32,
+    /// Point matches a tracking step needs
+    /// ([`crate::config::TrackingConfig::min_step_inliers`]).
+    pub min_step_points: usize,
     /// The frame, tracked on its depth, has moved off the reference's depth
     /// ([`crate::Tracker::leaves_depth_reference`]).
     pub leaves_depth_reference: bool,
@@ -47,6 +50,7 @@ pub fn needs_keyframe(
         reference,
         frames_since_keyframe,
         close_depth_m,
+        min_step_points,
         leaves_depth_reference,
     } = *context;
     if !frame.status.is_tracked() {
@@ -103,8 +107,11 @@ pub fn needs_keyframe(
     let posed =
         frame.inliers.points > MIN_INLIERS_FOR_KEYFRAME || on_depth_alone || leaves_depth_reference;
     // Tracked on depth with no map point in view: its close keypoints are the map's
-    // only chance to get points here.
-    let unmapped = on_depth_alone && frame.inliers.points == 0 && close_untracked > 0;
+    // only chance to get points here, once there are enough of them for a tracking
+    // step. Fewer, mapped, leave the next frame on depth alone again, asking again: a
+    // keyframe every frame, each a new depth reference carrying its frame's error.
+    let unmapped =
+        on_depth_alone && frame.inliers.points == 0 && close_untracked >= min_step_points;
     // In a room without keypoints no rule above fires before the frame goes
     // `degraded`, and a `degraded` frame without points makes a keyframe only when it
     // leaves its depth reference.
@@ -115,9 +122,10 @@ pub fn needs_keyframe(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::OdometryConfig;
+    use crate::config::{OdometryConfig, TrackingConfig};
     use crate::status::TrackingStatus;
-    use crate::testing::{Scene, first_keyframe, relinked};
+    use crate::testing::{CORNER, Scene, first_keyframe, plane_map, relinked, tracked};
+    use nalgebra::Isometry3;
 
     /// A map of one keyframe (200 points, 20 lines) and that keyframe's frame seen
     /// again, one frame later.
@@ -144,6 +152,7 @@ mod tests {
             reference,
             frames_since_keyframe: since,
             close_depth_m: 3.1,
+            min_step_points: TrackingConfig::default().min_step_inliers(),
             leaves_depth_reference,
         };
         needs_keyframe(&KeyframeConfig::default(), &context, frame)
@@ -214,6 +223,31 @@ mod tests {
         frame.status = TrackingStatus::Degraded;
         assert!(!decide_on_depth(&map, Some(kf), &frame, 1, false));
         assert!(decide_on_depth(&map, Some(kf), &frame, 1, true));
+    }
+
+    #[test]
+    fn a_frame_on_depth_alone_maps_its_close_keypoints_once_a_tracking_step_could_use_them() {
+        // A room of three planes and no map point; the frame is tracked on its depth and
+        // sees `n` close keypoints the map does not have.
+        let (map, kf) = plane_map(&CORNER);
+        let min_step_points = TrackingConfig::default().min_step_inliers();
+        let frame_seeing = |n: usize| {
+            let mut features = Scene::new(n, 0).features(1, &Isometry3::identity());
+            features.keypoints.iter_mut().for_each(|kp| kp.depth = 2.0);
+            let mut frame = tracked(features, Isometry3::identity());
+            frame.inliers.depth = 500;
+            frame
+        };
+        let (few, enough) = (
+            frame_seeing(min_step_points - 1),
+            frame_seeing(min_step_points),
+        );
+        assert!(!decide(&map, Some(kf), &few, 1));
+        assert!(decide(&map, Some(kf), &enough, 1));
+        // Enough keypoints, but the frame tracks map points: they are not all there is.
+        let mut frame = frame_seeing(min_step_points);
+        frame.inliers.points = 1;
+        assert!(!decide(&map, Some(kf), &frame, 1));
     }
 
     #[test]

@@ -277,6 +277,7 @@ impl TrackingSession {
                         reference: self.tracker.reference(),
                         frames_since_keyframe: self.frames_since_keyframe,
                         close_depth_m: self.config.tracking.close_depth_m,
+                        min_step_points: self.config.tracking.min_step_inliers(),
                         leaves_depth_reference: self.tracker.leaves_depth_reference(&frame),
                     },
                     &frame,
