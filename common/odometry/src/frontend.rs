@@ -36,6 +36,19 @@ pub struct FrontendTimings {
     pub planes: Duration,
 }
 
+/// What [`StructureExtractor::extract`] makes of a frame besides its surfaces.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceRequest<'a> {
+    /// The frame's valid 3D lines (camera frame) and the predicted rotation
+    /// (`current_from_previous`, which keeps the axes' identity), when the axes are on.
+    pub axes_from: Option<(&'a [Line3], Option<&'a Rotation3<f64>>)>,
+    /// Whether the surfaces carry the BFS planes (`[tracking] use_planes`).
+    pub planes: bool,
+    /// Whether the surfaces carry the depth grid, with the gray level of each node's
+    /// cell (`[tracking] use_depth_alignment`).
+    pub depth: bool,
+}
+
 /// Plane normals and the frame's Manhattan axes from its planes and 3D lines (the
 /// `planes` stage), with reusable scratch.
 pub struct StructureExtractor {
@@ -68,21 +81,43 @@ impl StructureExtractor {
         &self.plane_out
     }
 
-    /// The last frame's depth points and normals, every [`DEPTH_GRID_STEP`]-th node of
-    /// the normal grid, into `out`.
-    pub fn depth_grid(&self, out: &mut DepthGrid) {
-        out.sample(self.planes.normals(), DEPTH_GRID_STEP);
+    /// The frame's surfaces into `out` (its buffers reused; what `request` asks for, the
+    /// rest cleared) and its Manhattan axes when `request` asks for them.
+    ///
+    /// # Errors
+    /// [`FrontendError::Planes`] when the depth image does not have the camera's size.
+    pub fn extract(
+        &mut self,
+        gray: &ImageView<'_, u8>,
+        depth: &ImageView<'_, f32>,
+        camera: &PinholeCamera,
+        request: &SurfaceRequest<'_>,
+        out: &mut FrameSurfaces,
+    ) -> Result<Option<ManhattanAxes>, FrontendError> {
+        self.planes
+            .extract(depth, camera, &mut self.plane_out)
+            .map_err(|e| FrontendError::Planes(e.to_string()))?;
+        let axes = request
+            .axes_from
+            .and_then(|(lines, rotation)| self.estimate_axes(lines, rotation));
+        self.surfaces(request.planes, request.depth, out);
+        if request.depth {
+            out.depth
+                .sample_intensity(gray, DepthGrid::INTENSITY_CELL_PX);
+        }
+        Ok(axes)
     }
 
-    /// The last frame's planes and depth grid, each when asked for, into `out` (its
-    /// buffers reused).
+    /// The last frame's planes and depth grid (every [`DEPTH_GRID_STEP`]-th node of the
+    /// normal grid, without intensities), each when asked for, into `out` (its buffers
+    /// reused).
     pub fn surfaces(&self, planes: bool, depth: bool, out: &mut FrameSurfaces) {
         out.planes.clear();
         if planes {
             out.planes.extend_from_slice(&self.plane_out);
         }
         if depth {
-            self.depth_grid(&mut out.depth);
+            out.depth.sample(self.planes.normals(), DEPTH_GRID_STEP);
         } else {
             out.depth = DepthGrid::default();
         }
@@ -98,25 +133,10 @@ impl StructureExtractor {
         self.manhattan.restore(previous);
     }
 
-    /// The frame's normals and BFS planes from its depth (camera frame), for
-    /// [`Self::planes`], [`Self::depth_grid`] and [`Self::estimate_axes`].
-    ///
-    /// # Errors
-    /// [`FrontendError::Planes`] when the depth image does not have the camera's size.
-    pub fn extract_surfaces(
-        &mut self,
-        depth: &ImageView<'_, f32>,
-        camera: &PinholeCamera,
-    ) -> Result<(), FrontendError> {
-        self.planes
-            .extract(depth, camera, &mut self.plane_out)
-            .map_err(|e| FrontendError::Planes(e.to_string()))
-    }
-
     /// The Manhattan axes of the frame whose surfaces were extracted last, from its
     /// planes and its valid 3D lines (camera frame); `predicted_rotation`
     /// (`current_from_previous`) keeps the axes' identity.
-    pub fn estimate_axes(
+    fn estimate_axes(
         &mut self,
         lines3d: &[Line3],
         predicted_rotation: Option<&Rotation3<f64>>,
@@ -230,24 +250,20 @@ impl Frontend {
         }
         let lines_done = Instant::now();
         let mut manhattan = None;
-        let mut depth_grid = DepthGrid::default();
-        let mut planes = Vec::new();
+        let mut surfaces = FrameSurfaces::default();
         // The surfaces serve the axes, the depth alignment and the planes, each
         // switched on its own.
         if self.use_manhattan || self.keep_depth || self.keep_planes {
-            self.structure.extract_surfaces(&depth, &self.camera)?;
-            if self.use_manhattan {
-                manhattan = self
-                    .structure
-                    .estimate_axes(&self.line_out.lines3d, predicted_rotation);
-            }
-            if self.keep_depth {
-                self.structure.depth_grid(&mut depth_grid);
-                depth_grid.sample_intensity(&gray, DepthGrid::INTENSITY_CELL_PX);
-            }
-            if self.keep_planes {
-                planes.extend_from_slice(self.structure.planes());
-            }
+            let request = SurfaceRequest {
+                axes_from: self
+                    .use_manhattan
+                    .then_some((&self.line_out.lines3d, predicted_rotation)),
+                planes: self.keep_planes,
+                depth: self.keep_depth,
+            };
+            manhattan =
+                self.structure
+                    .extract(&gray, &depth, &self.camera, &request, &mut surfaces)?;
         }
         self.timings = FrontendTimings {
             points: points_done - start,
@@ -263,8 +279,8 @@ impl Frontend {
             line_descriptors: self.line_out.descriptors.clone(),
             lines3d: self.line_out.lines3d.clone(),
             manhattan,
-            planes,
-            depth: depth_grid,
+            planes: surfaces.planes,
+            depth: surfaces.depth,
         })
     }
 }

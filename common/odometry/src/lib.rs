@@ -75,7 +75,9 @@ pub use depth_alignment::{
 pub use depth_grid::DepthGrid;
 pub use final_trajectory::{FinalTrajectory, FrameAnchor};
 pub use frame::{FeatureError, FrameFeatures, FrameSurfaces};
-pub use frontend::{DEPTH_GRID_STEP, Frontend, FrontendError, FrontendTimings, StructureExtractor};
+pub use frontend::{
+    DEPTH_GRID_STEP, Frontend, FrontendError, FrontendTimings, StructureExtractor, SurfaceRequest,
+};
 pub use keyframe_policy::{KeyframeContext, needs_keyframe};
 pub use manhattan::WorldManhattan;
 pub use map_relocalisation::{MapRelocalisation, MapRelocaliser};

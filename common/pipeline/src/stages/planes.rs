@@ -7,7 +7,7 @@ use super::context::{POLL, StageContext, StageError, mark_ready};
 use crate::wire::{WireLine, WireManhattan, WirePose};
 use gfs_ipc::{Mode, Service, Stage, TopicSubscriber, encode_message, frame_view, topics};
 use gfs_lines::Line3;
-use gfs_odometry::{DepthGrid, FrameSurfaces, StructureExtractor};
+use gfs_odometry::{FrameSurfaces, StructureExtractor, SurfaceRequest};
 use nalgebra::Rotation3;
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -163,43 +163,39 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         if done.is_some_and(|d| id <= d) {
             continue;
         }
-        let mut axes = None;
         structure.surfaces(false, false, &mut surfaces);
-        if use_manhattan || surfaces_publisher.is_some() {
-            // Only the axes need the lines and, in lockstep, the last pose.
-            let (published, frame_lines) = if use_manhattan {
-                predicted.await_previous(ctx, &poses, id)?;
-                take_lines(ctx, &lines, &mut lines3d, id)?
-            } else {
-                (0, Vec::new())
-            };
-            mark_ready(&mut header, Stage::Planes, published);
-            header.mark_started(Stage::Planes);
-            match frame_view(&sample) {
-                Ok(frame) => match structure.extract_surfaces(&frame.depth(), &camera) {
-                    Ok(()) => {
-                        if use_manhattan {
-                            axes =
-                                structure.estimate_axes(&frame_lines, predicted.rotation.as_ref());
-                        }
-                        // The surfaces are taken while the frame is at hand: the depth
-                        // grid carries the gray level of each node's cell.
-                        if surfaces_publisher.is_some() {
-                            structure.surfaces(send_planes, send_depth, &mut surfaces);
-                            if send_depth {
-                                surfaces
-                                    .depth
-                                    .sample_intensity(&frame.gray(), DepthGrid::INTENSITY_CELL_PX);
-                            }
-                        }
-                    }
-                    Err(e) => tracing::warn!(frame = id, "planes: {e}"),
-                },
-                Err(e) => tracing::warn!(frame = id, "planes: bad frame: {e}"),
-            }
+        // Only the axes need the lines and, in lockstep, the last pose.
+        let (published, frame_lines) = if use_manhattan {
+            predicted.await_previous(ctx, &poses, id)?;
+            take_lines(ctx, &lines, &mut lines3d, id)?
         } else {
-            mark_ready(&mut header, Stage::Planes, 0);
-            header.mark_started(Stage::Planes);
+            (0, Vec::new())
+        };
+        mark_ready(&mut header, Stage::Planes, published);
+        header.mark_started(Stage::Planes);
+        let mut axes = None;
+        if use_manhattan || surfaces_publisher.is_some() {
+            let request = SurfaceRequest {
+                axes_from: use_manhattan.then_some((&frame_lines, predicted.rotation.as_ref())),
+                planes: send_planes,
+                depth: send_depth,
+            };
+            match frame_view(&sample)
+                .map_err(|e| format!("bad frame: {e}"))
+                .and_then(|frame| {
+                    structure
+                        .extract(
+                            &frame.gray(),
+                            &frame.depth(),
+                            &camera,
+                            &request,
+                            &mut surfaces,
+                        )
+                        .map_err(|e| e.to_string())
+                }) {
+                Ok(extracted) => axes = extracted,
+                Err(e) => tracing::warn!(frame = id, "planes: {e}"),
+            }
         }
         drop(sample);
         header.mark_finished(Stage::Planes);
