@@ -14,7 +14,7 @@
 //! I|)^2`, so that the creases' shading steps do not outweigh the smooth shading.
 
 use crate::depth_alignment::DepthAlignmentConfig;
-use crate::depth_grid::DepthGrid;
+use crate::depth_grid::{DepthGrid, IntensityLevel};
 use gfs_core::camera::PinholeCamera;
 use gfs_optim::PhotometricObservation;
 use nalgebra::{Isometry3, Point3};
@@ -27,9 +27,10 @@ pub struct PhotometricAssociator {
 
 impl PhotometricAssociator {
     /// The reference nodes (`reference` at `reference_from_world`) that project into
-    /// `current`'s intensity grid at `current_from_world` and are not hidden there by a
-    /// nearer surface of its depth, as world points with their reference intensities;
-    /// empty with `photometric_sigma` 0 or without intensities.
+    /// `current`'s intensities at `level` at `current_from_world` and are not hidden
+    /// there by a nearer surface of its depth, as world points with their reference
+    /// intensities at `level`; empty with `photometric_sigma` 0 or without intensities.
+    #[allow(clippy::too_many_arguments)]
     pub fn associate(
         &mut self,
         config: &DepthAlignmentConfig,
@@ -38,11 +39,13 @@ impl PhotometricAssociator {
         current_from_world: &Isometry3<f64>,
         reference: &DepthGrid,
         reference_from_world: &Isometry3<f64>,
+        level: IntensityLevel,
     ) -> &[PhotometricObservation] {
         self.observations.clear();
-        let (Some(image), Some(reference_image)) =
-            (current.intensity_grid(), reference.intensity_grid())
-        else {
+        let (Some(image), Some(reference_image)) = (
+            current.intensity_grid(level),
+            reference.intensity_grid(level),
+        ) else {
             return &self.observations;
         };
         if config.photometric_sigma <= 0.0 {

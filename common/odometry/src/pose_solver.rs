@@ -1,6 +1,7 @@
 //! Builds the pose-only problem of a frame from its matches (paper eq. 6-9) and applies
 //! the result: the optimised pose, and outlier matches unlinked.
 
+use crate::depth_grid::IntensityLevel;
 use crate::frame::FrameFeatures;
 use crate::map::Map;
 use crate::matching::ScalePyramid;
@@ -54,6 +55,8 @@ pub struct PoseSolver {
     planes: Vec<PlaneObservation>,
     photometric: Vec<PhotometricObservation>,
     photometric_scratch: PhotometricScratch,
+    /// The frame's intensities `photometric` is read in.
+    photometric_level: IntensityLevel,
     prior: Option<PosePrior>,
     result: PoseResult,
 }
@@ -73,6 +76,7 @@ impl PoseSolver {
             planes: Vec::new(),
             photometric: Vec::new(),
             photometric_scratch: PhotometricScratch::default(),
+            photometric_level: IntensityLevel::Cells,
             prior: None,
             result: PoseResult::default(),
         }
@@ -91,10 +95,15 @@ impl PoseSolver {
     }
 
     /// The reference intensities the next [`Self::solve`] reads in the frame's
-    /// intensity grid (none until set; unused when the frame has no intensities).
-    pub fn set_photometric(&mut self, observations: &[PhotometricObservation]) {
+    /// intensities at `level` (none until set; unused when the frame has none there).
+    pub fn set_photometric(
+        &mut self,
+        observations: &[PhotometricObservation],
+        level: IntensityLevel,
+    ) {
         self.photometric.clear();
         self.photometric.extend_from_slice(observations);
+        self.photometric_level = level;
     }
 
     /// The prediction the next [`Self::solve`] draws the pose towards (none until
@@ -184,7 +193,7 @@ impl PoseSolver {
                 planes: &self.planes,
                 photometric: frame
                     .depth
-                    .intensity_grid()
+                    .intensity_grid(self.photometric_level)
                     .filter(|_| !self.photometric.is_empty())
                     .map(|image| PhotometricTerm {
                         image,

@@ -121,7 +121,7 @@ pub fn textured_planes_depth(
             grid.intensity.push((value + noise) as f32);
         }
     }
-    grid.smooth_intensity();
+    grid.blur_and_coarsen_intensity();
     grid
 }
 

@@ -5,7 +5,7 @@
 
 use super::{TrackedFrame, Tracker};
 use crate::depth_alignment::{degraded_frame_renews, needs_new_reference};
-use crate::depth_grid::DepthGrid;
+use crate::depth_grid::{DepthGrid, IntensityLevel};
 use crate::map::Map;
 use crate::motion_prior::{PriorFor, motion_prior};
 use crate::status::TrackingStatus;
@@ -42,22 +42,29 @@ impl Tracker {
             frame,
             self.config.depth.photometric_on_features,
             sensor_variance_scale,
+            IntensityLevel::Cells,
         );
         self.solver.set_prior(None);
         aligned
     }
 
     /// Tracks a frame the features lost on its planes and depth alone (each when
-    /// switched on), from its current (predicted) pose and no matches; true when enough
-    /// depth pairs held, or planes did, and together they determine the pose (a
-    /// direction they leave free would drift where the optimiser let it).
-    pub(super) fn track_on_geometry(&mut self, map: &Map, frame: &mut TrackedFrame) -> bool {
+    /// switched on), from its current pose and matches, the photometric term reading
+    /// the intensities at `level`; true when enough depth pairs held, or planes did,
+    /// and together they determine the pose (a direction they leave free would drift
+    /// where the optimiser let it).
+    pub(super) fn track_on_geometry(
+        &mut self,
+        map: &Map,
+        frame: &mut TrackedFrame,
+        level: IntensityLevel,
+    ) -> bool {
         self.solver.set_prior(self.motion_prior(PriorFor::Geometry));
         if self.config.use_planes {
             self.refine_with_planes(map, frame);
         }
         let depth_ok = self.config.use_depth_alignment
-            && self.align_depth(map, frame, true, 1.0)
+            && self.align_depth(map, frame, true, 1.0, level)
             && frame.inliers.depth > 0
             && frame.inliers.depth as f64 >= MIN_DEPTH_INLIER_SHARE * self.depth_pairs as f64;
         self.keep_plane_inliers(frame);
@@ -69,13 +76,15 @@ impl Tracker {
 
     /// The coarse-to-fine association and optimisation passes, against the reference
     /// keyframe's depth or the last frame's ([`depth_reference`]), the nodes' sensor
-    /// variance scaled by `sensor_variance_scale`.
+    /// variance scaled by `sensor_variance_scale`, the photometric term (with
+    /// `photometric`) on the intensities at `level`.
     fn align_depth(
         &mut self,
         map: &Map,
         frame: &mut TrackedFrame,
         photometric: bool,
         sensor_variance_scale: f64,
+        level: IntensityLevel,
     ) -> bool {
         for pass in 0..self.config.depth.max_distance_m.len() {
             let Some((reference, reference_from_world)) = depth_reference(
@@ -108,13 +117,14 @@ impl Tracker {
                 &frame.camera_from_world,
                 reference,
                 &reference_from_world,
+                level,
             );
             self.solver
-                .set_photometric(if photometric { observations } else { &[] });
+                .set_photometric(if photometric { observations } else { &[] }, level);
             self.optimise(map, frame);
         }
         self.solver.set_depth(&[]);
-        self.solver.set_photometric(&[]);
+        self.solver.set_photometric(&[], IntensityLevel::Cells);
         true
     }
 
@@ -160,6 +170,35 @@ impl Tracker {
             if let Some((_, before)) = self.keyframe_depth.replace((reference, depth)) {
                 self.requested_keyframe_depth.1 = before;
             }
+        }
+    }
+
+    /// Tracks a frame the features lost on its geometry ([`Self::track_on_geometry`]),
+    /// the photometric term on the intensity cells and, where they leave the pose
+    /// undetermined or a direction weak (the motion prior placed the pose along it),
+    /// again from there on the coarse intensities, whose gradients hold a paint coarser
+    /// than the cells that the cells' noise hides. `Tracked` when a level determines
+    /// the pose, `Degraded` when one tracked it with a direction left weak, `None` when
+    /// neither tracked it.
+    pub(super) fn track_on_geometry_levels(
+        &mut self,
+        map: &Map,
+        frame: &mut TrackedFrame,
+    ) -> Option<TrackingStatus> {
+        let on_cells = self.track_on_geometry(map, frame, IntensityLevel::Cells);
+        if on_cells && !self.leaves_weak_directions(&frame.camera_from_world) {
+            return Some(TrackingStatus::Tracked);
+        }
+        let has_coarse = self.config.use_depth_alignment
+            && self.config.depth.photometric_sigma > 0.0
+            && (frame.features.depth)
+                .intensity_grid(IntensityLevel::Coarse)
+                .is_some();
+        let on_coarse = has_coarse && self.track_on_geometry(map, frame, IntensityLevel::Coarse);
+        if on_coarse && !self.leaves_weak_directions(&frame.camera_from_world) {
+            Some(TrackingStatus::Tracked)
+        } else {
+            (on_cells || on_coarse).then_some(TrackingStatus::Degraded)
         }
     }
 
@@ -350,7 +389,9 @@ mod tests {
         let textured = |k: u64, pose: &Isometry3<f64>| {
             let mut depth = textured_planes_depth(&camera(), pose, &WALL_AND_FLOOR, faint_paint, k);
             let gain = 1.0 + 0.03 * (k as f32).sin();
-            depth.intensity.iter_mut().for_each(|v| *v *= gain);
+            (depth.intensity.iter_mut())
+                .chain(depth.coarse_intensity.iter_mut())
+                .for_each(|v| *v *= gain);
             FrameFeatures {
                 id: FrameId(k),
                 timestamp: k as f64 / 30.0,

@@ -327,14 +327,10 @@ impl Tracker {
         if use_depth || use_planes {
             self.keep_few_matches(map, &mut frame, &predicted);
         }
-        if (use_depth || use_planes) && self.track_on_geometry(map, &mut frame) {
-            // Along a direction the data leave weak, the motion prior placed the pose
-            // (`track_on_geometry` already found the whole information determined).
-            frame.status = if self.leaves_weak_directions(&frame.camera_from_world) {
-                TrackingStatus::Degraded
-            } else {
-                TrackingStatus::Tracked
-            };
+        if (use_depth || use_planes)
+            && let Some(status) = self.track_on_geometry_levels(map, &mut frame)
+        {
+            frame.status = status;
             self.tracked_information = Some(self.determined_information(&frame));
             return frame;
         }
