@@ -223,9 +223,10 @@ impl DepthGrid {
     /// at the pixel alone would leave up to half a node between a paired point and its
     /// reference along the surface (15 mm at 2 m), and through the normals' noise that
     /// offset pulls the pose towards where the frame's nodes fall on the reference's,
-    /// as cell shifts pulled the photometric term ([`Self::blur_and_coarsen_intensity`]). The third
-    /// value is the surface normal's noise variance as a share of one node's: the sum
-    /// of the squared weights of the nodes blended (1 at a node).
+    /// as cell shifts pulled the photometric term
+    /// ([`Self::blur_and_coarsen_intensity`]). The third value is the surface normal's
+    /// noise variance as a share of one node's: the sum of the squared weights of the
+    /// nodes blended (1 at a node).
     pub fn surface_at_pixel(
         &self,
         u: f64,

@@ -375,8 +375,8 @@ mod tests {
     }
 
     /// Tracks 10 frames of the wall and the floor moving 1 cm a frame along their edge
-    /// (and turning 0.2 degrees a frame), on geometry alone, the exposure drifting; the largest translation
-    /// error, and whether every frame was `Tracked`.
+    /// (and turning 0.2 degrees a frame), on geometry alone, the exposure drifting; the
+    /// largest translation error, and whether every frame was `Tracked`.
     fn track_along_the_edge(photometric_sigma: f64) -> (f64, bool) {
         let mut config = TrackingConfig {
             use_depth_alignment: true,
