@@ -156,6 +156,18 @@ fn with_depth_and_planes() -> OdometryConfig {
     config
 }
 
+/// The built-in config of `gfsvo synth`'s sensor (`configs/synthetic.toml`: every depth
+/// node aligned and sampled, each as 4 independent pixels) with depth and planes, as
+/// `tests/bench/low_texture.sh all` runs it.
+fn synthetic_sensor_with_depth_and_planes() -> OdometryConfig {
+    let mut config = gfs_pipeline::Config::built_in("synthetic")
+        .expect("the built-in synthetic config parses")
+        .odometry();
+    config.tracking.use_depth_alignment = true;
+    config.tracking.use_planes = true;
+    config
+}
+
 /// Every frame `tracked` and the ATE within 4 mm: the low-texture goal of issue 17.
 fn assert_every_frame_tracked_within_4_mm(r: &RunResult) {
     assert_eq!(
@@ -198,21 +210,15 @@ fn low_texture_rotation_renews_its_depth_reference_and_is_tracked_within_4_mm() 
 /// Fast seed 2 sees 50-150 points and lines, most on walls 3-5 m away, and is tracked
 /// on them and its depth. Its error grew with each frame's distance from the reference
 /// keyframe, and a reference renewed only at a 6 mm worst direction kept it: 5.1 mm.
-/// Renewed at 4 mm: 3.2 mm. With the synthetic sensor's config (`configs/synthetic.toml`:
-/// every node, each as 4 independent pixels), as `tests/bench/low_texture.sh` runs it.
+/// Renewed at 4 mm: 3.2 mm.
 #[test]
 fn low_texture_fast_far_points_renew_their_reference_in_time_and_stay_within_4_mm() {
-    let mut config = gfs_pipeline::Config::built_in("synthetic")
-        .expect("the built-in synthetic config parses")
-        .odometry();
-    config.tracking.use_depth_alignment = true;
-    config.tracking.use_planes = true;
     let r = run_seed(
         SceneKind::LowTexture,
         TrajectoryKind::Fast,
         120,
         NoiseConfig::default(),
-        config,
+        synthetic_sensor_with_depth_and_planes(),
         2,
     );
     assert_every_frame_tracked_within_4_mm(&r);
@@ -222,21 +228,15 @@ fn low_texture_fast_far_points_renew_their_reference_in_time_and_stay_within_4_m
 /// no keypoint in view: its paint is coarser than the 4 px intensity cells, whose
 /// gradients' noise hid it, and those 23 frames were `degraded` (3.1 mm). Tracked again
 /// on the 8 px means of the cells where the cells leave a direction weak: every frame
-/// `tracked`, 2.7 mm. With the synthetic sensor's config, as
-/// `tests/bench/low_texture.sh` runs it.
+/// `tracked`, 2.7 mm.
 #[test]
 fn low_texture_bare_wall_is_tracked_on_the_coarse_intensities_within_4_mm() {
-    let mut config = gfs_pipeline::Config::built_in("synthetic")
-        .expect("the built-in synthetic config parses")
-        .odometry();
-    config.tracking.use_depth_alignment = true;
-    config.tracking.use_planes = true;
     let r = run_seed(
         SceneKind::LowTexture,
         TrajectoryKind::Slow,
         120,
         NoiseConfig::default(),
-        config,
+        synthetic_sensor_with_depth_and_planes(),
         9,
     );
     assert_every_frame_tracked_within_4_mm(&r);

@@ -320,13 +320,7 @@ mod tests {
             .flat_map(|_| (0..640).map(|x| (x / 4) as u8))
             .collect();
         let gray = GrayImage::from_vec(640, 480, pixels).expect("size");
-        let mut grid = DepthGrid {
-            stride_px: 8,
-            width: 80,
-            height: 60,
-            ..DepthGrid::default()
-        };
-        grid.sample_intensity(&gray.view(), DepthGrid::INTENSITY_CELL_PX);
+        let mut grid = sampled(&gray);
         let image = grid.intensity_grid(IntensityLevel::Cells).expect("sampled");
         assert_eq!((image.width, image.height, image.stride_px), (160, 120, 4));
         // A cell's mean is its pixels' (x / 4 constant over a 4 px cell); the blur keeps

@@ -310,6 +310,7 @@ fn depth_reference<'a>(
 #[cfg(test)]
 mod tests {
     use crate::config::TrackingConfig;
+    use crate::depth_grid::DepthGrid;
     use crate::frame::FrameFeatures;
     use crate::map::Map;
     use crate::sightings::Sightings;
@@ -384,37 +385,50 @@ mod tests {
         };
         config.depth.photometric_sigma = photometric_sigma;
         let mut tracker = Tracker::new(config, camera(), scale(), &GridConfig::default());
-        let map = Map::default();
+        let step = gfs_core::se3::exp(&Vector6::new(-0.01, 0.0, 0.0, 0.0, 0.0035, 0.0));
         // The exposure drifts by up to 3 % a frame.
-        let textured = |k: u64, pose: &Isometry3<f64>| {
+        let (worst, tracked) = track_steps(&mut tracker, &step, 10, |k, pose| {
             let mut depth = textured_planes_depth(&camera(), pose, &WALL_AND_FLOOR, faint_paint, k);
             let gain = 1.0 + 0.03 * (k as f32).sin();
             (depth.intensity.iter_mut())
                 .chain(depth.coarse_intensity.iter_mut())
                 .for_each(|v| *v *= gain);
-            FrameFeatures {
-                id: FrameId(k),
-                timestamp: k as f64 / 30.0,
-                depth,
-                ..FrameFeatures::default()
-            }
+            depth
+        });
+        (worst, tracked == 10)
+    }
+
+    /// Tracks `frames` frames on geometry alone, each `step` on from the last, `depth`
+    /// making a frame's depth grid from its index and true pose; frame 0 is taken as
+    /// tracked at the truth. The largest translation error and the frames `Tracked`.
+    fn track_steps(
+        tracker: &mut Tracker,
+        step: &Isometry3<f64>,
+        frames: u64,
+        depth: impl Fn(u64, &Isometry3<f64>) -> DepthGrid,
+    ) -> (f64, usize) {
+        let map = Map::default();
+        let features = |k: u64, pose: &Isometry3<f64>| FrameFeatures {
+            id: FrameId(k),
+            timestamp: k as f64 / 30.0,
+            depth: depth(k, pose),
+            ..FrameFeatures::default()
         };
-        let step = gfs_core::se3::exp(&Vector6::new(-0.01, 0.0, 0.0, 0.0, 0.0035, 0.0));
         let mut truth = Isometry3::identity();
-        let mut first = TrackedFrame::untracked(textured(0, &truth), truth);
+        let mut first = TrackedFrame::untracked(features(0, &truth), truth);
         first.status = TrackingStatus::Tracked;
         tracker.finish_frame(first);
-        let (mut worst, mut all_tracked) = (0.0f64, true);
-        for k in 1..=10 {
+        let (mut worst, mut tracked_frames) = (0.0f64, 0);
+        for k in 1..=frames {
             truth = step * truth;
-            let tracked = tracker.track(&map, textured(k, &truth), &mut Sightings::default());
+            let tracked = tracker.track(&map, features(k, &truth), &mut Sightings::default());
             let error = tracked.camera_from_world.inverse().translation.vector
                 - truth.inverse().translation.vector;
             worst = worst.max(error.norm());
-            all_tracked &= tracked.status == TrackingStatus::Tracked;
+            tracked_frames += usize::from(tracked.status == TrackingStatus::Tracked);
             tracker.finish_frame(tracked);
         }
-        (worst, all_tracked)
+        (worst, tracked_frames)
     }
 
     #[test]
@@ -440,37 +454,15 @@ mod tests {
         let paint =
             |p: &nalgebra::Vector3<f64>| 150.0 + (12.0 * p.x).sin() + (10.0 * p.y + 1.0).cos();
         let flat = |_: &nalgebra::Vector3<f64>| 150.0;
-        let mut tracker = tracker();
-        let map = Map::default();
-        let wall = |k: u64, pose: &Isometry3<f64>| {
+        let step = gfs_core::se3::exp(&Vector6::new(-0.004, 0.002, 0.0, 0.0, 0.0, 0.0017));
+        track_steps(&mut tracker(), &step, 12, |k, pose| {
             let mut depth = textured_planes_depth(&camera(), pose, &WALL, flat, k);
             if coarse_paint {
                 depth.coarse_intensity =
                     textured_planes_depth(&camera(), pose, &WALL, paint, k).coarse_intensity;
             }
-            FrameFeatures {
-                id: FrameId(k),
-                timestamp: k as f64 / 30.0,
-                depth,
-                ..FrameFeatures::default()
-            }
-        };
-        let step = gfs_core::se3::exp(&Vector6::new(-0.004, 0.002, 0.0, 0.0, 0.0, 0.0017));
-        let mut truth = Isometry3::identity();
-        let mut first = TrackedFrame::untracked(wall(0, &truth), truth);
-        first.status = TrackingStatus::Tracked;
-        tracker.finish_frame(first);
-        let (mut worst, mut tracked_frames) = (0.0f64, 0);
-        for k in 1..=12 {
-            truth = step * truth;
-            let tracked = tracker.track(&map, wall(k, &truth), &mut Sightings::default());
-            let error = tracked.camera_from_world.inverse().translation.vector
-                - truth.inverse().translation.vector;
-            worst = worst.max(error.norm());
-            tracked_frames += usize::from(tracked.status == TrackingStatus::Tracked);
-            tracker.finish_frame(tracked);
-        }
-        (worst, tracked_frames)
+            depth
+        })
     }
 
     #[test]
