@@ -105,8 +105,8 @@ impl DepthGrid {
         self.points.iter().any(|p| p[2] > 0.0)
     }
 
-    /// Keeps every `step`-th node of `estimator`'s grid (row and column), reusing the
-    /// buffers.
+    /// Keeps every `step`-th node of `estimator`'s grid (row and column), without
+    /// intensities, reusing the buffers.
     pub fn sample(&mut self, estimator: &NormalEstimator, step: usize) {
         let step = step.max(1);
         let (w, h) = (estimator.grid_width(), estimator.grid_height());
@@ -115,6 +115,9 @@ impl DepthGrid {
         self.height = (h / step) as u32;
         self.points.clear();
         self.normals.clear();
+        // New nodes: the last frame's intensities no longer belong to them.
+        self.intensity.clear();
+        self.coarse_intensity.clear();
         let (points, normals) = (estimator.points(), estimator.normals());
         for j in 0..self.height as usize {
             for i in 0..self.width as usize {
