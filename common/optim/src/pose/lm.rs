@@ -7,10 +7,18 @@ use crate::robust::Huber;
 use gfs_core::se3::retract;
 use nalgebra::{Isometry3, Matrix6, SMatrix, SVector, Vector6};
 
-/// Relative cost decrease below which LM has converged.
+/// Relative cost decrease below which LM has converged: an accepted step's, or the
+/// decrease the linearisation predicts for a candidate (a candidate that cannot beat
+/// it is not evaluated).
 const RELATIVE_COST_TOLERANCE: f64 = 1e-9;
-/// Step norm below which LM has converged (metres / radians).
-const STEP_TOLERANCE: f64 = 1e-10;
+/// Step norm below which LM has converged (metres / radians): a micrometre, a
+/// microradian, far below any pose's uncertainty. Candidates as short are not
+/// evaluated either: at the end of a run, where the cost's kinks (bilinear
+/// interpolation, the robust kernels' bends, the refitted exposure gain) refuse the
+/// step, the damping grew over some ten more evaluations of the cost to reach it
+/// (low-texture slow seed 5 with all terms: 15722 cost evaluations of the photometric
+/// term in 4348 iterations).
+const STEP_TOLERANCE: f64 = 1e-6;
 
 /// The normal equations of one linearisation: `H = sum J^T w Omega J` and
 /// `g = sum J^T w Omega e` over the left perturbation `[rho; phi]`. The cost is not
@@ -105,13 +113,19 @@ pub(super) fn minimize(
             }
             if let Some(cholesky) = a.cholesky() {
                 let delta = -cholesky.solve(&normal.g);
+                // The decrease of the linearisation's cost along the damped step.
+                let predicted =
+                    delta.dot(&damping_diag.component_mul(&delta)) - normal.g.dot(&delta);
+                if delta.norm() < STEP_TOLERANCE
+                    || predicted <= RELATIVE_COST_TOLERANCE * current.abs()
+                {
+                    break;
+                }
                 let candidate = retract(&pose, &delta);
                 if let Some(cost) = cost(&candidate)
                     && cost < current
                 {
-                    let predicted =
-                        delta.dot(&damping_diag.component_mul(&delta)) - normal.g.dot(&delta);
-                    damping.accept((current - cost) / predicted.max(f64::MIN_POSITIVE));
+                    damping.accept((current - cost) / predicted);
                     step = Some((candidate, delta.norm(), cost));
                     break;
                 }
@@ -120,7 +134,8 @@ pub(super) fn minimize(
                 break;
             }
         }
-        // No decrease at any damping: the estimate is a minimum to working precision.
+        // No decrease at any damping, or none worth a step: the estimate is a minimum
+        // to working precision.
         let Some((candidate, step_norm, cost)) = step else {
             return done(pose, iteration, true);
         };
@@ -134,4 +149,48 @@ pub(super) fn minimize(
         normal = linearize(&pose);
     }
     done(pose, max_iterations, false)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+    use std::cell::Cell;
+
+    /// A run started at its cost's minimum whose linearisation points elsewhere (as the
+    /// photometric term's central differences do beside a kink of the bilinear cost):
+    /// returns the pose it ends at and how often it evaluated the cost.
+    fn run_at_a_kinked_minimum(offset: f64) -> (Isometry3<f64>, usize) {
+        let minimum = Isometry3::translation(0.2, -0.1, 1.0);
+        let evaluations = Cell::new(0);
+        let error = |pose: &Isometry3<f64>| gfs_core::se3::log(&(pose * minimum.inverse()));
+        let run = minimize(
+            minimum,
+            10,
+            |pose| Normal {
+                h: Matrix6::identity(),
+                g: error(pose) + Vector6::repeat(offset),
+            },
+            |pose| {
+                evaluations.set(evaluations.get() + 1);
+                Some(error(pose).norm_squared())
+            },
+        );
+        assert!(run.converged);
+        (run.pose, evaluations.get())
+    }
+
+    #[test]
+    fn a_run_at_its_minimum_stops_once_no_step_worth_taking_is_left() {
+        // The gradient's offset of 1e-4 predicts a decrease no step finds: the damping
+        // grows until the steps are under a micrometre (before: until it was useless,
+        // 11 evaluations).
+        let (pose, evaluations) = run_at_a_kinked_minimum(1e-4);
+        assert_eq!(pose.translation.vector, Vector3::new(0.2, -0.1, 1.0));
+        assert!(evaluations <= 8, "{evaluations} evaluations");
+        // Where the offset is below what a step of a micrometre could gain, not one
+        // candidate is tried (before: 11 evaluations).
+        let (_, evaluations) = run_at_a_kinked_minimum(1e-8);
+        assert_eq!(evaluations, 1);
+    }
 }
