@@ -33,6 +33,47 @@ pub struct DepthGrid {
     /// ([`IntensityLevel::Coarse`]); empty when the intensities were not sampled.
     #[serde(default)]
     pub coarse_intensity: Vec<f32>,
+    /// The gray image's pixel noise where the cells were sampled, gray levels (its
+    /// Laplacian's mean magnitude, Immerkaer 1996); `None` when not measured.
+    #[serde(default)]
+    pub pixel_noise: Option<f32>,
+}
+
+/// Pixel noise, gray levels, below which an 8-bit image's rounding is not dithered: a
+/// smooth surface then shows rounding contours, which a change of exposure moves
+/// across it. `gfsvo synth`'s low-texture frames measure 0.03 / 0.12 / 0.27 / 0.47 gray
+/// levels rendered with 0 / 0.1 / 0.25 / 0.5 gray levels of noise per channel (slow
+/// seed 29 tracked 413 / 333 / 20 / 1.5 mm off with all terms, every frame `tracked`
+/// before this was measured), 1.4 with the default 2; TUM fr1's 0.6-1.1.
+pub const MIN_DITHERING_NOISE: f32 = 0.35;
+
+/// Rows of the image between those the pixel noise is measured on.
+const NOISE_ROW_STEP: usize = 4;
+
+/// The pixel noise of the `width` x `height` top-left part of `gray`, gray levels: the
+/// mean magnitude of the Laplacian difference `[1 -2 1; -2 4 -2; 1 -2 1]` (zero on a
+/// plane, so smooth shading adds nothing) times `sqrt(pi / 2) / 6` (Immerkaer 1996), on
+/// every [`NOISE_ROW_STEP`]-th row; `None` on an image under 3 x 3 pixels.
+fn pixel_noise(gray: &ImageView<'_, u8>, width: usize, height: usize) -> Option<f32> {
+    if width < 3 || height < 3 {
+        return None;
+    }
+    let (mut sum, mut count) = (0u64, 0u64);
+    for y in (1..height - 1).step_by(NOISE_ROW_STEP) {
+        let rows = [gray.row(y - 1), gray.row(y), gray.row(y + 1)];
+        for x in 1..width - 1 {
+            let at = |r: usize, dx: usize| i32::from(rows[r][x + dx - 1]);
+            let laplacian = at(0, 0) - 2 * at(0, 1) + at(0, 2) - 2 * at(1, 0) + 4 * at(1, 1)
+                - 2 * at(1, 2)
+                + at(2, 0)
+                - 2 * at(2, 1)
+                + at(2, 2);
+            sum += u64::from(laplacian.unsigned_abs());
+            count += 1;
+        }
+    }
+    let scale = (std::f64::consts::FRAC_PI_2).sqrt() / 6.0;
+    Some((scale * sum as f64 / count as f64) as f32)
 }
 
 /// Which of a depth grid's intensities the photometric term reads.
@@ -67,6 +108,7 @@ impl Clone for DepthGrid {
         self.intensity.clone_from(&source.intensity);
         self.intensity_cell_px = source.intensity_cell_px;
         self.coarse_intensity.clone_from(&source.coarse_intensity);
+        self.pixel_noise = source.pixel_noise;
     }
 }
 
@@ -118,6 +160,7 @@ impl DepthGrid {
         // New nodes: the last frame's intensities no longer belong to them.
         self.intensity.clear();
         self.coarse_intensity.clear();
+        self.pixel_noise = None;
         let (points, normals) = (estimator.points(), estimator.normals());
         for j in 0..self.height as usize {
             for i in 0..self.width as usize {
@@ -136,6 +179,7 @@ impl DepthGrid {
     pub fn sample_intensity(&mut self, gray: &ImageView<'_, u8>, cell_px: u32) {
         self.intensity.clear();
         self.coarse_intensity.clear();
+        self.pixel_noise = None;
         self.intensity_cell_px = cell_px;
         let (s, w, h) = self.intensity_layout();
         if s == 0
@@ -156,6 +200,14 @@ impl DepthGrid {
         let area = (s * s) as f32;
         self.intensity.iter_mut().for_each(|v| *v /= area);
         self.blur_and_coarsen_intensity();
+        self.pixel_noise = pixel_noise(gray, w * s, h * s);
+    }
+
+    /// False when the image the intensities were sampled from is too clean for its
+    /// 8-bit rounding to be dithered ([`MIN_DITHERING_NOISE`]); true when not measured.
+    pub fn rounding_is_dithered(&self) -> bool {
+        self.pixel_noise
+            .is_none_or(|noise| noise >= MIN_DITHERING_NOISE)
     }
 
     /// Blurs the intensities with the binomial kernel `[1 4 6 4 1] / 16` along rows and
@@ -349,6 +401,36 @@ mod tests {
         };
         grid.sample_intensity(&gray.view(), DepthGrid::INTENSITY_CELL_PX);
         grid
+    }
+
+    #[test]
+    fn the_pixel_noise_tells_a_dithered_image_from_a_clean_one() {
+        // A shading ramp over 640 pixels and a bump, rounded to 8 bits: with 2 gray
+        // levels of noise (as `gfsvo synth` renders), 0.5, or none before the rounding.
+        let image = |noise: f64| {
+            let mut rng = SplitMix64::new(5);
+            let shade = |x: f64, y: f64| {
+                90.0 + 0.1 * x + 20.0 * (-((x - 320.0).powi(2) + (y - 240.0).powi(2)) / 2e4).exp()
+            };
+            GrayImage::from_vec(
+                640,
+                480,
+                (0..480)
+                    .flat_map(|y| (0..640).map(move |x| (f64::from(x), f64::from(y))))
+                    .map(|(x, y)| (shade(x, y) + noise * rng.gaussian()).round() as u8)
+                    .collect(),
+            )
+            .expect("size")
+        };
+        let measured = |noise| sampled(&image(noise)).pixel_noise.expect("measured");
+        let (noisy, faint, clean) = (measured(2.0), measured(0.5), measured(0.0));
+        assert!((noisy - 2.0).abs() < 0.2, "{noisy}");
+        assert!((faint - 0.55).abs() < 0.1, "{faint}");
+        assert!(clean < 0.1, "{clean}");
+        assert!(sampled(&image(0.5)).rounding_is_dithered());
+        assert!(!sampled(&image(0.0)).rounding_is_dithered());
+        // Not measured (a grid not sampled from an image): taken as dithered.
+        assert!(DepthGrid::default().rounding_is_dithered());
     }
 
     #[test]
