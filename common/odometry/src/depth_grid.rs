@@ -48,7 +48,7 @@ pub struct DepthGrid {
 pub const MIN_DITHERING_NOISE: f32 = 0.35;
 
 /// Rows of the image between those the pixel noise is measured on.
-const NOISE_ROW_STEP: usize = 4;
+const NOISE_ROW_STEP: usize = 8;
 
 /// The pixel noise of the `width` x `height` top-left part of `gray`, gray levels: the
 /// mean magnitude of the Laplacian difference `[1 -2 1; -2 4 -2; 1 -2 1]` (zero on a
