@@ -231,6 +231,16 @@ impl DepthGrid {
                 smooth_line(&mut self.intensity, i, w, h);
             }
         }
+        self.coarsen_intensity();
+    }
+
+    /// Makes the coarse level again from the cells (means of 2 x 2 of them).
+    pub fn coarsen_intensity(&mut self) {
+        self.coarse_intensity.clear();
+        let (_, w, h) = self.intensity_layout();
+        if w == 0 || self.intensity.len() != w * h {
+            return;
+        }
         let (_, cw, ch) = self.level_layout(IntensityLevel::Coarse);
         for j in 0..ch {
             let (top, bottom) = (

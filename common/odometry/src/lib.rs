@@ -56,6 +56,7 @@ mod plane_association;
 mod plane_mapping;
 mod pose_solver;
 mod ransac;
+mod reference_intensity;
 mod relocalise;
 mod rolling_shutter;
 pub mod session;

@@ -173,6 +173,40 @@ impl Tracker {
         }
     }
 
+    /// Averages the view of `frame`, `Tracked` against the newest keyframe's depth, into
+    /// that keyframe's intensities ([`crate::reference_intensity`]) with `[tracking.depth]
+    /// average_reference_views`. Not between images too clean to be dithered: their
+    /// rounding contours, which a change of exposure moves, would be averaged.
+    pub(super) fn add_view_to_reference(&mut self, map: &Map, frame: &TrackedFrame) {
+        let depth = &self.config.depth;
+        if !depth.average_reference_views
+            || frame.status != TrackingStatus::Tracked
+            || frame.features.depth.is_empty()
+            || !frame.features.depth.rounding_is_dithered()
+        {
+            return;
+        }
+        let Some((kf, grid)) = self.keyframe_depth.as_mut() else {
+            return;
+        };
+        if !grid.rounding_is_dithered() {
+            return;
+        }
+        let Some(keyframe) = map.keyframe(*kf) else {
+            return;
+        };
+        let occlusion_m = depth.max_distance_m.first().copied().unwrap_or(0.08);
+        self.reference_intensity.add_view(
+            &self.camera,
+            *kf,
+            grid,
+            &keyframe.camera_from_world,
+            &frame.features.depth,
+            &frame.camera_from_world,
+            occlusion_m,
+        );
+    }
+
     /// Tracks a frame the features lost on its geometry ([`Self::track_on_geometry`]),
     /// the photometric term on the intensity cells and, where they leave the pose
     /// undetermined or a direction weak (the motion prior placed the pose along it),
@@ -306,7 +340,6 @@ fn depth_reference<'a>(
     let last = last?;
     (!last.features.depth.is_empty()).then_some((&last.features.depth, last.camera_from_world))
 }
-
 #[cfg(test)]
 mod tests {
     use crate::config::TrackingConfig;

@@ -28,6 +28,7 @@ use crate::motion_prior::{FilteredVelocity, VelocityChange};
 use crate::plane_association::PlaneAssociator;
 use crate::pose_solver::{Inliers, PoseSolver};
 use crate::ransac::{Correspondence, RigidRansac};
+use crate::reference_intensity::ReferenceIntensity;
 use crate::relocalise::relocalise;
 use crate::rolling_shutter;
 use crate::sightings::Sightings;
@@ -96,6 +97,8 @@ pub struct Tracker {
     /// The frame the last keyframe request was made of, until the map holds that
     /// keyframe, and its depth (the buffer stays for the next request).
     requested_keyframe_depth: (Option<FrameId>, crate::depth_grid::DepthGrid),
+    /// The newest keyframe's intensities averaged with the frames tracked against it.
+    reference_intensity: ReferenceIntensity,
     /// The prediction the last frame started from.
     predicted: Isometry3<f64>,
     /// Seconds from the frame before to the last frame, when the motion model had a
@@ -140,6 +143,7 @@ impl Tracker {
             plane_pairs: Vec::new(),
             keyframe_depth: None,
             requested_keyframe_depth: Default::default(),
+            reference_intensity: Default::default(),
             predicted: Isometry3::identity(),
             predicted_over_s: None,
             tracked_information: None,
@@ -312,6 +316,7 @@ impl Tracker {
                 self.keep_plane_inliers(&mut frame);
                 self.clear_planes();
                 frame.status = self.status_from_information();
+                self.add_view_to_reference(map, &frame);
             } else {
                 frame.status = if frame.inliers.total() < self.config.degraded_inliers {
                     TrackingStatus::Degraded
@@ -332,6 +337,7 @@ impl Tracker {
         {
             frame.status = status;
             self.tracked_information = Some(self.determined_information(&frame));
+            self.add_view_to_reference(map, &frame);
             return frame;
         }
         frame.restart(&predicted);
