@@ -66,11 +66,12 @@ pub struct DepthAlignmentConfig {
     pub keyframe_reference: bool,
     /// With `keyframe_reference`: the keyframe's intensity cells become the mean of its
     /// own and the views of the frames `Tracked` against it (up to 8 views a cell),
-    /// brought onto its cells through its depth at its exposure (`reference_intensity.
-    /// rs`); default true (the synthetic low-texture seeds 1-28 with all terms 79 -> 82
-    /// of 84 within 4 mm with every frame tracked, with depth alone 76 -> 81; the
-    /// samples are weighed as before: weighed by the noise the averaging leaves, 82 and
-    /// 79; the record's "The keyframe's intensities averaged over its frames").
+    /// brought onto its cells through its depth at its exposure
+    /// (`reference_intensity.rs`); default true. The synthetic low-texture seeds 1-28
+    /// with all terms: 79 -> 82 of 84 within 4 mm with every frame tracked, with depth
+    /// alone 76 -> 81 (the photometric samples weighed as before; weighed by the noise
+    /// the averaging leaves, 82 and 79; the record's "The keyframe's intensities
+    /// averaged over its frames").
     pub average_reference_views: bool,
     /// Standard deviation of the photometric term's intensity difference (blurred 4 px
     /// cell means), gray levels; 0 = no photometric term; default 0.5 (a camera's 2

@@ -340,6 +340,7 @@ fn depth_reference<'a>(
     let last = last?;
     (!last.features.depth.is_empty()).then_some((&last.features.depth, last.camera_from_world))
 }
+
 #[cfg(test)]
 mod tests {
     use crate::config::TrackingConfig;
