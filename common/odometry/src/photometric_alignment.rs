@@ -56,9 +56,7 @@ impl PhotometricAssociator {
         let intensity_sigma2 = config.photometric_sigma.powi(2);
         // The frame's gain over the reference where their samples meet.
         let (mut cross, mut square) = (0.0, 0.0);
-        // A reference point whose depth differs from the frame's there by more than the
-        // coarsest association gate is on another surface (occluded or disoccluded).
-        let occlusion_m = config.max_distance_m.first().copied().unwrap_or(0.08);
+        let occlusion_m = config.occlusion_m();
         let world_from_reference = reference_from_world.inverse();
         let current_from_reference = current_from_world * world_from_reference;
         let position_sigma2 = config.photometric_position_sigma_px.powi(2);

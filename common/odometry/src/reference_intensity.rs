@@ -12,7 +12,7 @@
 use crate::depth_grid::{DepthGrid, IntensityLevel};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::KeyFrameId;
-use nalgebra::{Isometry3, Point3, Vector3};
+use nalgebra::{Isometry3, Point3};
 
 /// Views of a cell, the keyframe's own included, past which a frame's view no longer
 /// moves the mean: the frames far along have drifted most, and a mean over a bounded
@@ -119,11 +119,7 @@ impl ReferenceIntensity {
 /// camera frame; `None` without a node or at a grazing angle.
 fn surface_point(grid: &DepthGrid, camera: &PinholeCamera, u: f64, v: f64) -> Option<Point3<f64>> {
     let (point, normal) = grid.at_pixel(u, v)?;
-    let ray = Vector3::new(
-        (u - camera.cx) / camera.fx,
-        (v - camera.cy) / camera.fy,
-        1.0,
-    );
+    let ray = camera.back_project(u, v, 1.0).coords;
     let along = normal.dot(&ray);
     if along.abs() < 0.2 * ray.norm() {
         return None;
@@ -137,7 +133,7 @@ mod tests {
     use super::*;
     use crate::testing::{camera, textured_planes_depth};
     use gfs_core::ids::KeyFrameId;
-    use nalgebra::Translation3;
+    use nalgebra::{Translation3, Vector3};
 
     /// A wall 2 m ahead, painted with a shading of a few gray levels.
     const WALL: [([f64; 3], f64); 1] = [([0.0, 0.0, 1.0], 2.0)];

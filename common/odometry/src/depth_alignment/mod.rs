@@ -189,6 +189,14 @@ impl Default for DepthAlignmentConfig {
     }
 }
 
+impl DepthAlignmentConfig {
+    /// Depth difference, metres, past which a point seen from another view is on
+    /// another surface (occluded or disoccluded): the coarsest association gate.
+    pub fn occlusion_m(&self) -> f64 {
+        self.max_distance_m.first().copied().unwrap_or(0.08)
+    }
+}
+
 /// Standard deviation of a Kinect depth measurement at `z` metres.
 pub fn kinect_depth_sigma(z: f64) -> f64 {
     0.0012 + 0.0019 * (z - 0.4).powi(2)

@@ -181,21 +181,19 @@ impl Tracker {
         let depth = &self.config.depth;
         if !depth.average_reference_views
             || frame.status != TrackingStatus::Tracked
-            || frame.features.depth.is_empty()
             || !frame.features.depth.rounding_is_dithered()
         {
             return;
         }
-        let Some((kf, grid)) = self.keyframe_depth.as_mut() else {
+        let Some((kf, grid)) =
+            (self.keyframe_depth.as_mut()).filter(|(_, grid)| grid.rounding_is_dithered())
+        else {
             return;
         };
-        if !grid.rounding_is_dithered() {
-            return;
-        }
         let Some(keyframe) = map.keyframe(*kf) else {
             return;
         };
-        let occlusion_m = depth.max_distance_m.first().copied().unwrap_or(0.08);
+        let occlusion_m = depth.occlusion_m();
         self.reference_intensity.add_view(
             &self.camera,
             *kf,
