@@ -7,6 +7,7 @@ use crate::config::{OrbConfig, OrbConfigError};
 use crate::distribute::Distributor;
 use crate::fast::{self, Corner, Rect};
 use crate::keypoint::{KeyPoint, OrbFeatures};
+use crate::keypoint_depth::keypoint_depth;
 use crate::orientation::{Disc, HALF_PATCH};
 use crate::pyramid::Pyramid;
 use gfs_core::{GrayImage, ImageView};
@@ -232,7 +233,7 @@ impl OrbExtractor {
                 let u = (x as f32 + 0.5) * sx - 0.5;
                 let v = (y as f32 + 0.5) * sy - 0.5;
                 let depth = depth.map_or(0.0, |d| {
-                    depth_at(d, u, v, self.config.depth_min_m, self.config.depth_max_m)
+                    keypoint_depth(d, u, v, self.config.depth_min_m, self.config.depth_max_m)
                 });
                 out.keypoints.push(KeyPoint {
                     u,
@@ -369,37 +370,4 @@ impl Detector {
             corner: self.corners[i as usize],
         }));
     }
-}
-
-/// Neighbours tried when the centre depth is missing, nearest first.
-const DEPTH_NEIGHBOURS: [(isize, isize); 8] = [
-    (1, 0),
-    (-1, 0),
-    (0, 1),
-    (0, -1),
-    (1, 1),
-    (-1, 1),
-    (1, -1),
-    (-1, -1),
-];
-
-/// Depth in metres at the pixel nearest `(u, v)`, else at its nearest valid 3x3
-/// neighbour; 0 when none is finite and within `[min_m, max_m]`.
-pub fn depth_at(depth: ImageView<'_, f32>, u: f32, v: f32, min_m: f32, max_m: f32) -> f32 {
-    if !(u.is_finite() && v.is_finite()) {
-        return 0.0;
-    }
-    let (x, y) = (u.round() as isize, v.round() as isize);
-    let valid = |dx: isize, dy: isize| {
-        let (xx, yy) = (x + dx, y + dy);
-        if xx < 0 || yy < 0 {
-            return None;
-        }
-        depth
-            .get(xx as usize, yy as usize)
-            .filter(|&z| z.is_finite() && z >= min_m && z <= max_m && z > 0.0)
-    };
-    valid(0, 0)
-        .or_else(|| DEPTH_NEIGHBOURS.iter().find_map(|&(dx, dy)| valid(dx, dy)))
-        .unwrap_or(0.0)
 }

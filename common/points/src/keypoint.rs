@@ -20,7 +20,8 @@ pub struct KeyPoint {
     pub angle: f32,
     /// FAST score: the largest threshold at which the corner is still detected.
     pub response: f32,
-    /// Depth at the keypoint in metres; 0 = missing or out of the valid range.
+    /// Depth of the keypoint's point in metres ([`crate::keypoint_depth`]); 0 = missing,
+    /// out of the valid range, or a T-junction at an occlusion edge.
     pub depth: f32,
 }
 

@@ -15,7 +15,9 @@
 //! 4. **Orientation** by intensity centroid on a radius-15 disc, and a 256-bit
 //!    **steered BRIEF** on the level smoothed by a 7x7, sigma-2 Gaussian.
 //! 5. **Output** in level-0 undistorted pixels ([`KeyPoint`], `#[repr(C)]`, with the
-//!    depth at the keypoint) plus [`Descriptor`]s, index-aligned in [`OrbFeatures`].
+//!    depth at the keypoint, [`keypoint_depth`]: at an occlusion edge the nearer
+//!    surface's, or none at a T-junction) plus [`Descriptor`]s, index-aligned in
+//!    [`OrbFeatures`].
 //!
 //! [`OrbExtractor`] owns every buffer and reuses it frame to frame; it records the time
 //! of each step of its last call ([`OrbTimings`]).
@@ -73,6 +75,7 @@ mod extractor;
 mod fast;
 mod grid;
 mod keypoint;
+mod keypoint_depth;
 mod matching;
 mod orientation;
 mod pattern;
@@ -81,10 +84,11 @@ mod rotation;
 mod simd;
 
 pub use config::{MAX_LEVELS, OrbConfig, OrbConfigError};
-pub use extractor::{EDGE, OrbError, OrbExtractor, OrbTimings, depth_at};
+pub use extractor::{EDGE, OrbError, OrbExtractor, OrbTimings};
 pub use fast::{Corner, RING_RADIUS, detect_fast};
 pub use grid::{DEFAULT_CELL_PX, KeyPointGrid};
 pub use keypoint::{Descriptor, KeyPoint, OrbFeatures};
+pub use keypoint_depth::{depth_at, keypoint_depth};
 pub use matching::{BestMatch, best_two, hamming};
 pub use orientation::HALF_PATCH;
 pub use rotation::{ROTATION_BINS, RotationHistogram};
