@@ -73,11 +73,11 @@ pub fn keypoint_depth(depth: ImageView<'_, f32>, u: f32, v: f32, min_m: f32, max
         return 0.0;
     }
     let (x, y) = (u.round() as isize, v.round() as isize);
-    let valid = |dx: isize, dy: isize| valid_depth(depth, x + dx, y + dy, min_m, max_m);
     let (mut nearer, mut farther) = (under, under);
-    for dy in -OUTLINE_REACH..=OUTLINE_REACH {
-        for dx in -OUTLINE_REACH..=OUTLINE_REACH {
-            if let Some(z) = valid(dx, dy) {
+    let columns = reach(x, depth.width());
+    for row in reach(y, depth.height()) {
+        for &z in &depth.row(row)[columns.clone()] {
+            if in_range(z, min_m, max_m) {
                 nearer = nearer.min(z);
                 farther = farther.max(z);
             }
@@ -89,7 +89,7 @@ pub fn keypoint_depth(depth: ImageView<'_, f32>, u: f32, v: f32, min_m: f32, max
     }
     let (mut ring, mut ring_on_nearer) = (0, 0);
     for (dx, dy) in ring_offsets() {
-        if let Some(z) = valid(dx, dy) {
+        if let Some(z) = valid_depth(depth, x + dx, y + dy, min_m, max_m) {
             ring += 1;
             ring_on_nearer += usize::from(on_nearer(z));
         }
@@ -97,6 +97,14 @@ pub fn keypoint_depth(depth: ImageView<'_, f32>, u: f32, v: f32, min_m: f32, max
     let straight = ring >= MIN_RING_PIXELS
         && STRAIGHT_OUTLINE_SHARE.contains(&(ring_on_nearer as f32 / ring as f32));
     if straight { 0.0 } else { nearer }
+}
+
+/// The pixels within the outline's reach of `centre` along an axis of `len` pixels.
+fn reach(centre: isize, len: usize) -> std::ops::Range<usize> {
+    let len = len as isize;
+    let start = (centre - OUTLINE_REACH).clamp(0, len);
+    let end = (centre + OUTLINE_REACH + 1).clamp(start, len);
+    start as usize..end as usize
 }
 
 /// The offsets of the ring's pixels, clockwise from its top-left corner.
@@ -123,7 +131,12 @@ fn valid_depth(
     }
     depth
         .get(x as usize, y as usize)
-        .filter(|&z| z.is_finite() && z >= min_m && z <= max_m && z > 0.0)
+        .filter(|&z| in_range(z, min_m, max_m))
+}
+
+/// A depth is valid when it is finite, positive and within `[min_m, max_m]`.
+fn in_range(z: f32, min_m: f32, max_m: f32) -> bool {
+    z.is_finite() && z >= min_m && z <= max_m && z > 0.0
 }
 
 #[cfg(test)]
