@@ -157,13 +157,19 @@ fn with_depth_and_planes() -> OdometryConfig {
 }
 
 /// The built-in config of `gfsvo synth`'s sensor (`configs/synthetic.toml`: every depth
-/// node aligned and sampled, each as 4 independent pixels) with depth and planes, as
-/// `tests/bench/low_texture.sh all` runs it.
-fn synthetic_sensor_with_depth_and_planes() -> OdometryConfig {
+/// node aligned and sampled, each as 4 independent pixels) with the depth alignment, as
+/// `tests/bench/low_texture.sh depth` runs it.
+fn synthetic_sensor_with_depth() -> OdometryConfig {
     let mut config = gfs_pipeline::Config::built_in("synthetic")
         .expect("the built-in synthetic config parses")
         .odometry();
     config.tracking.use_depth_alignment = true;
+    config
+}
+
+/// The same with the planes too, as `tests/bench/low_texture.sh all` runs it.
+fn synthetic_sensor_with_depth_and_planes() -> OdometryConfig {
+    let mut config = synthetic_sensor_with_depth();
     config.tracking.use_planes = true;
     config
 }
@@ -294,16 +300,12 @@ fn a_bare_wall_read_against_a_keyframe_averaged_over_its_views_is_tracked_within
 /// edge read at the nearer surface's depth, and a T-junction read as a bearing: 1.7 mm.
 #[test]
 fn a_tables_corners_against_a_wall_are_read_at_the_tables_depth_and_tracked_within_4_mm() {
-    let mut config = gfs_pipeline::Config::built_in("synthetic")
-        .expect("the built-in synthetic config parses")
-        .odometry();
-    config.tracking.use_depth_alignment = true;
     let r = run_seed(
         SceneKind::LowTexture,
         TrajectoryKind::Fast,
         120,
         NoiseConfig::default(),
-        config,
+        synthetic_sensor_with_depth(),
         21,
     );
     assert_every_frame_tracked_within_4_mm(&r);

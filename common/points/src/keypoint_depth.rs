@@ -47,15 +47,7 @@ pub fn depth_at(depth: ImageView<'_, f32>, u: f32, v: f32, min_m: f32, max_m: f3
         return 0.0;
     }
     let (x, y) = (u.round() as isize, v.round() as isize);
-    let valid = |(dx, dy): (isize, isize)| {
-        valid_depth(
-            depth,
-            x.saturating_add(dx),
-            y.saturating_add(dy),
-            min_m,
-            max_m,
-        )
-    };
+    let valid = |offset| valid_depth(depth, (x, y), offset, min_m, max_m);
     valid((0, 0))
         .or_else(|| NEIGHBOURS.iter().find_map(|&offset| valid(offset)))
         .unwrap_or(0.0)
@@ -98,13 +90,7 @@ pub fn keypoint_depth(depth: ImageView<'_, f32>, u: f32, v: f32, min_m: f32, max
     }
     let (mut ring, mut ring_on_nearer) = (0, 0);
     for (dx, dy) in ring_offsets() {
-        if let Some(z) = valid_depth(
-            depth,
-            x.saturating_add(dx),
-            y.saturating_add(dy),
-            min_m,
-            max_m,
-        ) {
+        if let Some(z) = valid_depth(depth, (x, y), (dx, dy), min_m, max_m) {
             ring += 1;
             ring_on_nearer += usize::from(on_nearer(z));
         }
@@ -132,15 +118,16 @@ fn ring_offsets() -> impl Iterator<Item = (isize, isize)> {
         .chain((-r..r).map(move |i| (-r, -i)))
 }
 
-/// The depth at pixel `(x, y)` if it is inside the image, finite and within
-/// `[min_m, max_m]` (and positive).
+/// The depth at the pixel `offset` from `centre` if it is inside the image, finite and
+/// within `[min_m, max_m]` (and positive).
 fn valid_depth(
     depth: ImageView<'_, f32>,
-    x: isize,
-    y: isize,
+    (x, y): (isize, isize),
+    (dx, dy): (isize, isize),
     min_m: f32,
     max_m: f32,
 ) -> Option<f32> {
+    let (x, y) = (x.saturating_add(dx), y.saturating_add(dy));
     if x < 0 || y < 0 {
         return None;
     }
