@@ -233,7 +233,7 @@ impl FieldFrame {
     pub fn new(field: &CorrelatedField, seed: u64, t: f64, width: usize, height: usize) -> Self {
         let columns = width / FIELD_GRID + 2;
         let rows = height / FIELD_GRID + 2;
-        let mut rng = SplitMix64::keyed(seed, &[0x6669_656c_64]);
+        let mut rng = SplitMix64::keyed(seed, &[0x66_6965_6c64]);
         let scale = width as f64 / 640.0;
         let amplitude = field.sigma * (2.0 / WAVES as f64).sqrt();
         let waves: Vec<[f64; 3]> = (0..WAVES)
