@@ -10,7 +10,7 @@ root=$(cd "$(dirname "$0")/../.." && pwd)
 venv=$root/target/opencv-venv
 if [ ! -x "$venv/bin/python" ] || ! "$venv/bin/python" -c 'import cv2, scipy' 2>/dev/null; then
   python3 -m venv "$venv"
-  "$venv/bin/pip" install --quiet opencv-contrib-python-headless==4.12.0.88 scipy
+  "$venv/bin/pip" install --quiet opencv-contrib-python-headless==4.11.0.86 scipy
 fi
 "$venv/bin/python" "$root/tests/peers/opencv_odometry.py" "$1" "$2" "$3"
 gfsvo=$root/target/release/gfsvo
