@@ -152,4 +152,13 @@ mod tests {
             assert!((col - analytic.column(k)).norm() < 1e-6, "column {k}");
         }
     }
+
+    #[test]
+    fn adjoint_moves_a_tangent_vector_through_a_pose() {
+        let t = exp(&Vector6::new(0.3, -0.1, 0.2, 0.4, 0.2, -0.3));
+        let xi = Vector6::new(0.01, -0.02, 0.015, 0.005, -0.01, 0.02);
+        let conjugated = t * exp(&xi) * t.inverse();
+        let moved = exp(&(adjoint(&t) * xi));
+        assert!((log(&(moved.inverse() * conjugated))).norm() < 1e-12);
+    }
 }
