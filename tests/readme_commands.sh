@@ -19,8 +19,9 @@
 #   cargo build --release --workspace --bins   # the check reuses the release build
 #   bash tests/readme_commands.sh
 #
-# It takes about 30 s on two idle cores with the built-in sequence already rendered
-# into ~/.cache/gfsvo (the first run renders it: about 25 s more).
+# Measured on the 2-core development machine at load average 10 (other builds running):
+# 72 s wall, 24 s of CPU, most of it four `gfsvo run`s and a 60-frame render; the first
+# run on a machine also renders the built-in sequence into ~/.cache/gfsvo (about 25 s).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 readme=$root/README.md
