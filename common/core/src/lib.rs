@@ -5,8 +5,9 @@
 //! - [`Image`] / [`ImageView`]: a size plus a contiguous row-major buffer. Algorithms take
 //!   views so that they read memory they do not own (a decoded file, or a shared-memory
 //!   sample in the pipeline) without copying it.
-//! - [`camera`]: the pinhole model with radial-tangential distortion (k1 k2 p1 p2 k3),
-//!   point undistortion and a precomputed [`camera::UndistortMap`] for whole images.
+//! - [`camera`]: the pinhole model with the lens models of ROS 2 drivers (plumb_bob,
+//!   rational_polynomial, equidistant), point undistortion and a precomputed
+//!   [`camera::UndistortMap`] for whole images.
 //! - [`se3`]: the Lie-group helpers (exp / log / skew) with the one perturbation
 //!   convention used by every optimiser of the project.
 //! - [`align`]: least-squares rigid alignment of 3D point pairs (Kabsch).

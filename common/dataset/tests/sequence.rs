@@ -93,18 +93,8 @@ fn write_depth8(dir: &Path, rel: &str) {
 
 fn camera(k1: f64) -> Camera {
     Camera::from_config(&CameraConfig {
-        fx: 20.0,
-        fy: 20.0,
-        cx: 7.5,
-        cy: 5.5,
-        width: W,
-        height: H,
         k1,
-        k2: 0.0,
-        p1: 0.0,
-        p2: 0.0,
-        k3: 0.0,
-        readout_s: 0.0,
+        ..CameraConfig::pinhole(20.0, 20.0, 7.5, 5.5, W, H)
     })
     .unwrap()
 }

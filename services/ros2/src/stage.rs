@@ -171,21 +171,7 @@ pub fn probe_camera(
             Ok(Some((info, _))) => {
                 match camera_from_info(&info, &ros2.camera_info_topic, config.camera.readout_s) {
                     Ok(camera) => {
-                        let (p, d) = (&camera.pinhole, &camera.distortion);
-                        let table = gfs_core::camera::CameraConfig {
-                            fx: p.fx,
-                            fy: p.fy,
-                            cx: p.cx,
-                            cy: p.cy,
-                            width: p.width,
-                            height: p.height,
-                            k1: d.k1,
-                            k2: d.k2,
-                            p1: d.p1,
-                            p2: d.p2,
-                            k3: d.k3,
-                            readout_s: config.camera.readout_s,
-                        };
+                        let table = camera.config(config.camera.readout_s);
                         std::fs::write(path, toml::to_string(&table)?)?;
                         return Ok(());
                     }

@@ -104,7 +104,7 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
             Some(&config_path),
             &args.out,
             "camera",
-            camera_values(&camera),
+            camera_values(&camera)?,
             &config_path,
         )?;
     }

@@ -86,30 +86,17 @@ fn derived_config(
     camera: &Camera,
     path: &Path,
 ) -> CliResult<Config> {
-    write_config(config_path, dataset, "camera", camera_values(camera), path)
+    write_config(config_path, dataset, "camera", camera_values(camera)?, path)
 }
 
 /// The `[camera]` values of `camera` (its `readout_s` is not among them: the config's
 /// stays).
-pub fn camera_values(camera: &Camera) -> Vec<(&'static str, toml::Value)> {
-    let (p, d) = (&camera.pinhole, &camera.distortion);
-    let mut values: Vec<(&str, toml::Value)> = [
-        ("fx", p.fx),
-        ("fy", p.fy),
-        ("cx", p.cx),
-        ("cy", p.cy),
-        ("k1", d.k1),
-        ("k2", d.k2),
-        ("p1", d.p1),
-        ("p2", d.p2),
-        ("k3", d.k3),
-    ]
-    .into_iter()
-    .map(|(k, v)| (k, toml::Value::Float(v)))
-    .collect();
-    values.push(("width", toml::Value::Integer(p.width as i64)));
-    values.push(("height", toml::Value::Integer(p.height as i64)));
-    values
+///
+/// # Errors
+/// None in practice: a camera's table is always TOML.
+pub fn camera_values(camera: &Camera) -> CliResult<Vec<(String, toml::Value)>> {
+    let table = toml::Table::try_from(camera.config(0.0))?;
+    Ok(table.into_iter().filter(|(k, _)| k != "readout_s").collect())
 }
 
 /// Writes the config of `config_path` (or the dataset's built-in one) with `values` set
@@ -122,7 +109,7 @@ pub fn write_config(
     config_path: Option<&Path>,
     dataset: &Path,
     section: &str,
-    values: Vec<(&'static str, toml::Value)>,
+    values: impl IntoIterator<Item = (impl Into<String>, toml::Value)>,
     path: &Path,
 ) -> CliResult<Config> {
     let (origin, text) = Config::source_text(config_path, dataset)?;
@@ -132,7 +119,7 @@ pub fn write_config(
         .or_insert_with(|| toml::Value::Table(toml::Table::new()));
     if let toml::Value::Table(t) = entry {
         for (key, value) in values {
-            t.insert(key.to_owned(), value);
+            t.insert(key.into(), value);
         }
     }
     let text = format!(
