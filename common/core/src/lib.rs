@@ -14,6 +14,7 @@
 //! - [`ids`]: typed ids, so that a frame id never indexes a map point.
 //! - [`descriptor`]: 256-bit binary descriptors and their Hamming distance.
 //! - [`rng`]: a deterministic PRNG (SplitMix64) for sampling and fixtures.
+//! - [`stamp::Stamp`]: capture stamps as integer nanoseconds, exact from source to outputs.
 //!
 //! Conventions (see DESIGN.md): poses are `T_wc` (`world_from_camera`,
 //! `nalgebra::Isometry3<f64>`), camera optical frame x right, y down, z forward;
@@ -39,5 +40,6 @@ pub mod ids;
 mod image;
 pub mod rng;
 pub mod se3;
+pub mod stamp;
 
 pub use image::{DepthImage, GrayImage, Image, ImageError, ImageView, RgbImage};

@@ -275,6 +275,13 @@ fn bad_folders_and_lists_name_the_file_and_line() {
         DatasetError::NoFrames { .. }
     ));
 
+    dir.write("associations.txt", "# only comments\n");
+    let err = open_err(dir.path()).to_string();
+    assert!(
+        err.ends_with("no frames (associations.txt lists no frame)"),
+        "{err}"
+    );
+
     dir.write("associations.txt", "1.0 rgb/0.png 1.0\n");
     let err = open_err(dir.path());
     assert!(

@@ -65,9 +65,7 @@ pub fn camera_from_info(
     let width = info.width as usize;
     let height = info.height as usize;
     let config = Camera {
-        pinhole: PinholeCamera::new(
-            info.k[0], info.k[4], info.k[2], info.k[5], width, height,
-        ),
+        pinhole: PinholeCamera::new(info.k[0], info.k[4], info.k[2], info.k[5], width, height),
         distortion: Distortion::from_coefficients(model, d),
     }
     .config(readout_s);
@@ -102,8 +100,7 @@ pub fn cameras_differ(a: &Camera, b: &Camera) -> bool {
         || far(p.fy, q.fy)
         || far(p.cx, q.cx)
         || far(p.cy, q.cy)
-        || d
-            .named_coefficients()
+        || d.named_coefficients()
             .iter()
             .zip(e.named_coefficients())
             .any(|((_, x), (_, y))| far(*x, y))
@@ -158,8 +155,10 @@ mod tests {
             DistortionModel::RationalPolynomial,
             &[0.52, -2.6, 0.0005, -0.0002, 1.5, 0.4, -2.4, 1.4],
         );
-        let fisheye =
-            Distortion::from_coefficients(DistortionModel::Equidistant, &[-0.007, 0.04, -0.04, 0.007]);
+        let fisheye = Distortion::from_coefficients(
+            DistortionModel::Equidistant,
+            &[-0.007, 0.04, -0.04, 0.007],
+        );
         for distortion in [fr1().distortion, rational, fisheye] {
             let camera = Camera {
                 distortion,
@@ -200,7 +199,9 @@ mod tests {
         info.distortion_model = "kannala_brandt".to_owned();
         info.d.truncate(4);
         assert_eq!(
-            camera_from_info(&info, "/camera/info", 0.0).unwrap_err().to_string(),
+            camera_from_info(&info, "/camera/info", 0.0)
+                .unwrap_err()
+                .to_string(),
             "/camera/info at 3.000000 s: distortion model \"kannala_brandt\" is not one of \
              plumb_bob, rational_polynomial, equidistant"
         );

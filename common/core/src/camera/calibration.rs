@@ -276,11 +276,16 @@ impl Camera {
                 100.0 * (1.0 - share)
             )));
         }
-        let corner = [(0.0, 0.0), (w - 1.0, 0.0), (0.0, h - 1.0), (w - 1.0, h - 1.0)]
-            .map(|(u, v)| k.normalized(u, v))
-            .into_iter()
-            .max_by(|a, b| a.norm().total_cmp(&b.norm()))
-            .unwrap_or_default();
+        let corner = [
+            (0.0, 0.0),
+            (w - 1.0, 0.0),
+            (0.0, h - 1.0),
+            (w - 1.0, h - 1.0),
+        ]
+        .map(|(u, v)| k.normalized(u, v))
+        .into_iter()
+        .max_by(|a, b| a.norm().total_cmp(&b.norm()))
+        .unwrap_or_default();
         let mut previous = 0.0;
         for step in 1..=LENS_GRID {
             let radius = self

@@ -27,11 +27,7 @@ pub enum DistortionModel {
 
 impl DistortionModel {
     /// Every model, for error messages and parsing.
-    pub const ALL: [Self; 3] = [
-        Self::PlumbBob,
-        Self::RationalPolynomial,
-        Self::Equidistant,
-    ];
+    pub const ALL: [Self; 3] = [Self::PlumbBob, Self::RationalPolynomial, Self::Equidistant];
 
     /// The CameraInfo / config name.
     pub fn name(self) -> &'static str {
@@ -236,8 +232,9 @@ impl Distortion {
             if residual.abs() < 1e-12 {
                 break;
             }
-            let slope =
-                1.0 + t2 * (3.0 * self.k1 + t2 * (5.0 * self.k2 + t2 * (7.0 * self.k3 + t2 * 9.0 * self.k4)));
+            let slope = 1.0
+                + t2 * (3.0 * self.k1
+                    + t2 * (5.0 * self.k2 + t2 * (7.0 * self.k3 + t2 * 9.0 * self.k4)));
             if slope.abs() < ON_AXIS {
                 break;
             }
@@ -265,7 +262,10 @@ mod tests {
     #[test]
     fn the_fisheye_maps_angles_not_radii() {
         let fisheye = Distortion::from_coefficients(DistortionModel::Equidistant, &[0.0; 4]);
-        assert!(!fisheye.is_zero(), "equidistant with zeros is still a fisheye");
+        assert!(
+            !fisheye.is_zero(),
+            "equidistant with zeros is still a fisheye"
+        );
         // A ray at 45 degrees lands at radius pi/4 (not tan 45 = 1).
         let d = fisheye.distort(Vector2::new(1.0, 0.0));
         assert!((d.x - std::f64::consts::FRAC_PI_4).abs() < 1e-12);

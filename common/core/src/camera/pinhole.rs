@@ -3,7 +3,6 @@
 use nalgebra::{Point2, Point3, Vector2};
 use serde::{Deserialize, Serialize};
 
-
 /// Ideal pinhole intrinsics and the image size they belong to.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PinholeCamera {

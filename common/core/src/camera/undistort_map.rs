@@ -207,7 +207,6 @@ fn blend(a: u8, b: u8, c: u8, d: u8, tap: &BilinearTap) -> u32 {
     (top * (WEIGHT_ONE - wy) + bottom * wy + half) >> (2 * WEIGHT_BITS)
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -281,5 +280,4 @@ mod tests {
         let wrong = Image::<f32>::new(320, 240);
         assert!(map.remap_depth(&wrong.view(), &mut out).is_err());
     }
-
 }

@@ -140,7 +140,19 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
     let poses = pipeline::complete_trajectory(&outcome.received, &timestamps);
     write_outputs(&args.out, &poses)?;
     if let Some(path) = &args.mcap {
-        record_mcap(path, &config, &poses, &outcome.covariances)?;
+        let restarts: Vec<(String, u32)> = outcome
+            .restarts
+            .iter()
+            .map(|(stage, n)| ((*stage).to_owned(), *n))
+            .collect();
+        record_mcap(
+            path,
+            &config,
+            &poses,
+            &outcome.covariances,
+            Some(&outcome.profile),
+            &restarts,
+        )?;
     }
     let mut counts = BTreeMap::<&str, usize>::new();
     for pose in &poses {

@@ -7,9 +7,13 @@ use crate::CliResult;
 use crate::config::Config;
 use crate::pipeline::Covariances;
 use gfs_core::camera::Camera;
+use gfs_core::stamp::Stamp;
+use gfs_ipc::Profile;
 use gfs_odometry::FramePose;
 use gfs_ros2::bag::{BagTopics, BagWriter, scan};
 use gfs_ros2::camera_info::{camera_from_info, cameras_differ};
+use gfs_ros2::diagnostics::{DiagnosticsWindow, WINDOW_NS};
+use gfs_ros2::msg::{Header, Time};
 use gfs_ros2::odom::{OdometryPublisherState, TrackedPose};
 use gfs_ros2::schema;
 use std::path::{Path, PathBuf};
@@ -96,7 +100,10 @@ fn derived_config(
 /// None in practice: a camera's table is always TOML.
 pub fn camera_values(camera: &Camera) -> CliResult<Vec<(String, toml::Value)>> {
     let table = toml::Table::try_from(camera.config(0.0))?;
-    Ok(table.into_iter().filter(|(k, _)| k != "readout_s").collect())
+    Ok(table
+        .into_iter()
+        .filter(|(k, _)| k != "readout_s")
+        .collect())
 }
 
 /// Writes the config of `config_path` (or the dataset's built-in one) with `values` set
@@ -132,7 +139,9 @@ pub fn write_config(
 
 /// Writes `/odom`, `/tf` and the status of every pose into an MCAP file (ROS 2 profile),
 /// stamped with the colour stamps, with the covariance of each tracked pose (a pose
-/// without one, predicted, gets the inflated "unknown" covariance).
+/// without one, predicted, gets the inflated "unknown" covariance); and `/diagnostics`
+/// once a second of the camera's clock, with the latencies of `profile` when the run
+/// has one and the `restarts` of each stage.
 ///
 /// # Errors
 /// The file cannot be written.
@@ -141,20 +150,25 @@ pub fn record_mcap(
     config: &Config,
     poses: &[FramePose],
     covariances: &Covariances,
+    profile: Option<&Profile>,
+    restarts: &[(String, u32)],
 ) -> CliResult {
     let ros2 = &config.ros2;
     let mut state = OdometryPublisherState::new(ros2);
     let mut writer = BagWriter::create(path)?;
+    let mut diagnostics = DiagnosticsWindow::new();
+    let mut next_report = None;
     for pose in poses {
+        let stamp = Stamp::from_secs(pose.timestamp).unwrap_or_default();
         let messages = state.messages(&TrackedPose {
-            stamp: pose.timestamp,
+            stamp,
             world_from_camera: pose.world_from_camera,
             covariance: covariances.get(&pose.id.0).copied(),
             status: pose.status.as_str(),
             // The recorder sees the published (odom) poses only.
             map_from_odom: nalgebra::Isometry3::identity(),
         });
-        let time = (pose.timestamp.max(0.0) * 1e9).round() as u64;
+        let time = stamp.nanos().max(0) as u64;
         if let Some(odometry) = &messages.odometry {
             writer.write(&ros2.odom_topic, &schema::ODOMETRY, time, odometry)?;
         }
@@ -162,6 +176,30 @@ pub fn record_mcap(
             writer.write(&ros2.tf_topic, &schema::TF_MESSAGE, time, tf)?;
         }
         writer.write(&ros2.status_topic, &schema::STRING, time, &messages.status)?;
+        let now = time as i64;
+        let latency_s = profile
+            .and_then(|p| p.frame(pose.id.0))
+            .and_then(|f| f.end_to_end_ns())
+            .map(|ns| ns as f64 * 1e-9);
+        diagnostics.frame_received(now);
+        diagnostics.pose_published(now, latency_s, pose.status.as_str());
+        let due = next_report.get_or_insert(now + WINDOW_NS);
+        if now >= *due {
+            while *due <= now {
+                *due += WINDOW_NS;
+            }
+            let header = Header {
+                stamp: Time::from(Stamp::from_nanos(now)),
+                frame_id: String::new(),
+            };
+            let report = diagnostics.report(now, header, &ros2.colour_topic, restarts);
+            writer.write(
+                &ros2.diagnostics_topic,
+                &schema::DIAGNOSTIC_ARRAY,
+                time,
+                &report,
+            )?;
+        }
     }
     writer.finish()?;
     Ok(())

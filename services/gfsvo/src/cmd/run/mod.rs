@@ -225,7 +225,13 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     write_outputs(&args.out, &poses)?;
     write_odometry(&args.out, &odometry)?;
     if let Some(path) = &args.mcap {
-        super::ros2_io::record_mcap(path, &config, &odometry, &covariances)?;
+        let stage_restarts: Vec<(String, u32)> = restarts
+            .iter()
+            .flatten()
+            .map(|(stage, n)| ((*stage).to_owned(), *n))
+            .collect();
+        let (profile, restarts) = (None, &stage_restarts);
+        super::ros2_io::record_mcap(path, &config, &odometry, &covariances, profile, restarts)?;
     }
     let estimated = checks::tracked_trajectory(&poses, &args.out)?;
     let evaluation = match &ground_truth {
