@@ -5,12 +5,13 @@ sequences rendered by `gfsvo synth`:
 1. Stamps: every /odom stamp equals its colour image's stamp exactly (integer sec and
    nanosec), for TUM stamps and for stamps with nine non-zero nanosecond digits.
 2. /diagnostics (diagnostic_msgs/DiagnosticArray) received at about 1 Hz with the
-   tracking state, rates, latency, share tracked and restarts; level OK while tracking.
+   tracking state, rates, latency, share tracked and restarts; while tracking, level OK
+   or WARN, and WARN whenever a pose was late (> 100 ms).
 3. Lens models: a sequence rendered through a rational_polynomial (Azure Kinect) and an
-   equidistant (fisheye) lens, published with that CameraInfo, is tracked with an ATE
-   close to the same sequence through an ideal pinhole (realtime runs vary from run to
-   run, see interop.py: the bound here is 25 %; the lockstep Rust test
-   tests/tests/lens_models.rs holds the 10 %).
+   equidistant (fisheye) lens, published with that CameraInfo (at 10 Hz), is tracked
+   with that lens and an ATE close to the same sequence through an ideal pinhole
+   (realtime runs vary from run to run, see interop.py: the bound here is 25 %; the
+   lockstep Rust test tests/tests/lens_models.rs holds the 10 %).
 4. A CameraInfo with an unknown distortion model is refused, naming model and topic.
 """
 import json
@@ -74,7 +75,8 @@ def check_exact_stamps(name, summary, odom):
           f"a colour image, {len(summary['unmatched'])} not; {nine} with nine non-zero "
           f"nanosecond digits", flush=True)
     assert odom and exact == len(odom), "every /odom carries its colour image's stamp"
-    assert len(odom) >= 0.95 * len(published), "/odom for the frames"
+    # The share of frames with a pose is interop.py's check (98 %); here, enough to see.
+    assert len(odom) >= 0.5 * len(published), "/odom for the frames"
     return nine
 
 
@@ -102,7 +104,9 @@ def main():
     assert 0.8 <= rate <= 1.25, "/diagnostics at about 1 Hz"
     assert all(f in r["values"] for r in reports for f in fields), "every report has the fields"
     assert busy and all(r["values"]["tracking state"] in ("tracked", "degraded") for r in busy)
-    assert any(r["level"] == 0 for r in busy), "OK while tracking on time"
+    for r in busy:
+        late = float(r["values"]["latency max (ms)"]) > 100.0
+        assert r["level"] in ((1,) if late else (0, 1)), "WARN when late, never ERROR tracking"
 
     summary, _, odom, _ = live("stamps_nine", DATA, tum1, ["--frames", "150", "--stamps", "nine"])
     nine = check_exact_stamps("nine-digit stamps", summary, odom)
@@ -112,7 +116,12 @@ def main():
     for model in ["none", "rational_polynomial", "equidistant"]:
         folder = WORK / f"synth_{model}"
         sh(GFSVO, "synth", "--frames", "150", "--distortion", model, "--out", folder)
-        _, out, _, _ = live(f"lens_{model}", folder, folder / "synthetic.toml")
+        # At 10 Hz, so that a loaded machine still tracks every frame: the lens is
+        # compared here, not the realtime budget.
+        _, out, _, _ = live(f"lens_{model}", folder, folder / "synthetic.toml",
+                            ["--rate", "10"])
+        used = (out / "config.toml").read_text()
+        assert model == "none" or f'model = "{model}"' in used, "tracked with the driver's lens"
         ates[model] = ate(folder / "groundtruth.txt", out / "trajectory.txt")
     print("lens models, live ATE: " + ", ".join(
         f"{m} {a:.4f} m ({a / ates['none']:.2f})" for m, a in ates.items()), flush=True)

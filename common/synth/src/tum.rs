@@ -131,7 +131,7 @@ impl SynthSequence {
         } else {
             let name = d.model.name();
             (
-                format!("Recorded through a {name} lens"),
+                format!("Recorded through a lens, model {name}"),
                 format!("model = \"{name}\"\n"),
             )
         };

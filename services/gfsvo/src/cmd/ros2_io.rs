@@ -137,11 +137,21 @@ pub fn write_config(
     Ok(Config::load(Some(path), dataset)?)
 }
 
+/// What a recording takes from the run besides the poses.
+pub struct RunDetails<'a> {
+    /// The latencies of the frames, when the run has a profile.
+    pub profile: Option<&'a Profile>,
+    /// Restarts of each stage.
+    pub restarts: &'a [(String, u32)],
+    /// The colour stamps as received, by frame id (a frame beyond them is stamped from
+    /// its seconds, [`Stamp::from_secs`]).
+    pub stamps: &'a [Stamp],
+}
+
 /// Writes `/odom`, `/tf` and the status of every pose into an MCAP file (ROS 2 profile),
 /// stamped with the colour stamps, with the covariance of each tracked pose (a pose
 /// without one, predicted, gets the inflated "unknown" covariance); and `/diagnostics`
-/// once a second of the camera's clock, with the latencies of `profile` when the run
-/// has one and the `restarts` of each stage.
+/// once a second of the camera's clock.
 ///
 /// # Errors
 /// The file cannot be written.
@@ -150,8 +160,7 @@ pub fn record_mcap(
     config: &Config,
     poses: &[FramePose],
     covariances: &Covariances,
-    profile: Option<&Profile>,
-    restarts: &[(String, u32)],
+    details: &RunDetails<'_>,
 ) -> CliResult {
     let ros2 = &config.ros2;
     let mut state = OdometryPublisherState::new(ros2);
@@ -159,7 +168,12 @@ pub fn record_mcap(
     let mut diagnostics = DiagnosticsWindow::new();
     let mut next_report = None;
     for pose in poses {
-        let stamp = Stamp::from_secs(pose.timestamp).unwrap_or_default();
+        let stamp = details
+            .stamps
+            .get(pose.id.0 as usize)
+            .copied()
+            .or_else(|| Stamp::from_secs(pose.timestamp))
+            .unwrap_or_default();
         let messages = state.messages(&TrackedPose {
             stamp,
             world_from_camera: pose.world_from_camera,
@@ -177,9 +191,10 @@ pub fn record_mcap(
         }
         writer.write(&ros2.status_topic, &schema::STRING, time, &messages.status)?;
         let now = time as i64;
-        let latency_s = profile
+        let latency_s = details
+            .profile
             .and_then(|p| p.frame(pose.id.0))
-            .and_then(|f| f.end_to_end_ns())
+            .and_then(|f| f.end_to_end_ns)
             .map(|ns| ns as f64 * 1e-9);
         diagnostics.frame_received(now);
         diagnostics.pose_published(now, latency_s, pose.status.as_str());
@@ -192,7 +207,7 @@ pub fn record_mcap(
                 stamp: Time::from(Stamp::from_nanos(now)),
                 frame_id: String::new(),
             };
-            let report = diagnostics.report(now, header, &ros2.colour_topic, restarts);
+            let report = diagnostics.report(now, header, &ros2.colour_topic, details.restarts);
             writer.write(
                 &ros2.diagnostics_topic,
                 &schema::DIAGNOSTIC_ARRAY,

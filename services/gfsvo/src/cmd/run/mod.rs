@@ -230,8 +230,12 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             .flatten()
             .map(|(stage, n)| ((*stage).to_owned(), *n))
             .collect();
-        let (profile, restarts) = (None, &stage_restarts);
-        super::ros2_io::record_mcap(path, &config, &odometry, &covariances, profile, restarts)?;
+        let details = super::ros2_io::RunDetails {
+            profile: None,
+            restarts: &stage_restarts,
+            stamps: &[],
+        };
+        super::ros2_io::record_mcap(path, &config, &odometry, &covariances, &details)?;
     }
     let estimated = checks::tracked_trajectory(&poses, &args.out)?;
     let evaluation = match &ground_truth {
