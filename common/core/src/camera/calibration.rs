@@ -292,7 +292,8 @@ impl Camera {
                 .distortion
                 .distort(corner * (step as f64 / LENS_GRID as f64))
                 .norm();
-            if !(radius > previous) {
+            // NaN (an overflowing lens) folds over too.
+            if radius.partial_cmp(&previous) != Some(std::cmp::Ordering::Greater) {
                 return Err(error(format!(
                     "the lens folds over {:.0} % of the way from the centre to the corner",
                     100.0 * step as f64 / LENS_GRID as f64
