@@ -219,7 +219,7 @@ mod tests {
             w.pose_published(t + 20 * MS, Some(0.020), status);
         }
         let restarts = [("tracker".to_owned(), 1)];
-        let report = w.report(2000 * MS, Header::default(), "/rgb", &restarts);
+        let report = w.report(2020 * MS, Header::default(), "/rgb", &restarts);
         let status = &report.status[0];
         assert_eq!(status.level, Level::Ok as u8, "{status:?}");
         assert_eq!(value(&report, "input rate (Hz)"), "30.0");
