@@ -2,7 +2,8 @@
 /odom against odometry.txt (the poses as published; trajectory.txt, the map poses,
 differs once a loop correction or a relocalisation went into map -> odom): the base
 pose in odom turned back into the camera pose with the default camera-in-base
-extrinsic (REP 103 optical frame)."""
+extrinsic (REP 103 optical frame); and /diagnostics once a second of the camera's clock,
+whatever the playback speed."""
 import sys
 
 import numpy as np
@@ -30,9 +31,13 @@ rows = [list(map(float, l.split())) for l in open(trajectory) if l.strip() and n
 by_stamp = {round(r[0], 6): r for r in rows}
 base = matrix([0, 0, 0], [-0.5, 0.5, -0.5, 0.5])
 odoms, statuses, worst = 0, 0, 0.0
+diagnostics = []
 for m in read_ros2_messages(mcap_path):
     if m.channel.topic == "/gfsvo/status":
         statuses += 1
+    if m.channel.topic == "/diagnostics":
+        st = m.ros_msg.status[0]
+        diagnostics.append((m.ros_msg.header.stamp.sec, {kv.key for kv in st.values}, st.level))
     if m.channel.topic != "/odom":
         continue
     o = m.ros_msg
@@ -47,4 +52,9 @@ for m in read_ros2_messages(mcap_path):
 print(f"mcap: {odoms} /odom, {statuses} status messages; odometry.txt has {len(rows)} poses; "
       f"largest difference {worst:.2e}")
 assert odoms == len(rows) == statuses, "one /odom per pose"
+span_s = rows[-1][0] - rows[0][0]
+print(f"mcap: {len(diagnostics)} /diagnostics over {span_s:.1f} s of camera clock, levels "
+      f"{sorted({d[2] for d in diagnostics})}")
+assert abs(len(diagnostics) - span_s) <= 1.5, "/diagnostics once a second of the data"
+assert all({"tracking state", "input rate (Hz)", "frames tracked (%)"} <= d[1] for d in diagnostics)
 assert worst < 1e-6, "every /odom equals odometry.txt"

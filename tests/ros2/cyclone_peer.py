@@ -4,13 +4,19 @@ DDS (PyPI cyclonedds) publishes a TUM folder at 30 Hz as sensor_msgs/Image (rgb8
 /odom. Prints frames received and the latency colour published -> odometry received;
 writes the /odom poses as JSON lines.
 
-Usage: cyclone_peer.py FOLDER OUT.jsonl [--rate 30] [--wait-match 60]
+Usage: cyclone_peer.py FOLDER OUT.jsonl [--rate 30] [--wait-match 60] [--frames N]
+       [--stamps tum|nine] [--diagnostics DIAG.jsonl] [--distortion-model NAME]
+
+The CameraInfo is the folder's camera: its synthetic.toml `[camera]` (any lens model)
+when it has one, else TUM freiburg1's. `--stamps nine` stamps the frames on a clock
+whose nanoseconds have nine non-zero digits (tum.nine_digit_stamp).
 
 Cyclone's Python writer must use XCDR1 to be read by RustDDS. Images are serialised by
 hand (numpy bytes after the CDR header fields), once, before publishing starts: the IDL
 serialiser writes a uint8 sequence element by element, too slow for 30 Hz in Python."""
 import argparse
 import json
+import tomllib
 import os
 import struct
 import subprocess
@@ -22,6 +28,7 @@ import numpy as np
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
+from pathlib import Path
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader
@@ -191,6 +198,44 @@ class Odometry(IdlStruct, typename="nav_msgs::msg::dds_::Odometry_"):
     twist: TwistWithCovariance
 
 
+@dataclass
+class KeyValue(IdlStruct, typename="diagnostic_msgs::msg::dds_::KeyValue_"):
+    key: str
+    value: str
+
+
+@dataclass
+class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticStatus_"):
+    level: uint8
+    name: str
+    message: str
+    hardware_id: str
+    values: sequence[KeyValue]
+
+
+@dataclass
+class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticArray_"):
+    header: Header
+    status: sequence[DiagnosticStatus]
+
+
+def folder_camera(folder, model_override):
+    """(width, height, model, D, fx, fy, cx, cy) of the folder's camera."""
+    config = Path(folder) / "synthetic.toml"
+    if config.is_file():
+        cam = tomllib.loads(config.read_text())["camera"]
+        model = cam.get("model", "plumb_bob")
+        names = {"plumb_bob": ["k1", "k2", "p1", "p2", "k3"],
+                 "rational_polynomial": ["k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"],
+                 "equidistant": ["k1", "k2", "k3", "k4"]}[model]
+        d = [float(cam.get(n, 0.0)) for n in names]
+        size, k = (cam["width"], cam["height"]), (cam["fx"], cam["fy"], cam["cx"], cam["cy"])
+    else:
+        c = tum.FR1
+        model, d, size, k = "plumb_bob", c["d"], (640, 480), (c["fx"], c["fy"], c["cx"], c["cy"])
+    return (*size, model_override or model, d, *k)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("folder")
@@ -201,14 +246,22 @@ def main():
     ap.add_argument("--on-frame", type=int, default=-1,
                     help="run --command when this frame is published (fault test)")
     ap.add_argument("--command", default="")
+    ap.add_argument("--frames", type=int, default=0, help="publish only the first N frames")
+    ap.add_argument("--stamps", choices=["tum", "nine"], default="tum")
+    ap.add_argument("--diagnostics", help="write the /diagnostics received here (JSON lines)")
+    ap.add_argument("--distortion-model", help="publish this model name in the CameraInfo")
     args = ap.parse_args()
 
     frame = "camera_color_optical_frame"
     frames = []
     t0 = time.time()
-    for t_rgb, t_depth, rgb_path, depth_path in tum.frames(args.folder):
+    for i, (t_rgb, t_depth, rgb_path, depth_path) in enumerate(tum.frames(args.folder)):
+        if args.frames and i >= args.frames:
+            break
         sec, ns = tum.stamp(t_rgb)
         dsec, dns = tum.stamp(t_depth)
+        if args.stamps == "nine":
+            sec, ns = dsec, dns = tum.nine_digit_stamp(i)
         # REP 118: 16UC1 in millimetres (TUM stores 5000 units per metre).
         mm = np.round(tum.depth_raw(depth_path).astype(np.float64) / 5.0).astype("<u2")
         frames.append((t_rgb, sec, ns,
@@ -225,14 +278,15 @@ def main():
     depth_w = DataWriter(dp, Topic(dp, "rt/camera/aligned_depth_to_color/image_raw", Image), qos=sensor)
     info_w = DataWriter(dp, Topic(dp, "rt/camera/color/camera_info", CameraInfo), qos=sensor)
     odom_r = DataReader(dp, Topic(dp, "rt/odom", Odometry), qos=reliable)
+    diag_r = DataReader(dp, Topic(dp, "rt/diagnostics", DiagnosticArray), qos=reliable)
 
-    c = tum.FR1
+    w, h, model, d, fx, fy, cx, cy = folder_camera(args.folder, args.distortion_model)
 
     def camera_info(sec, ns):
-        return CameraInfo(Header(Time(sec, ns), frame), 480, 640, "plumb_bob", c["d"],
-                          [c["fx"], 0, c["cx"], 0, c["fy"], c["cy"], 0, 0, 1],
+        return CameraInfo(Header(Time(sec, ns), frame), h, w, model, d,
+                          [fx, 0, cx, 0, fy, cy, 0, 0, 1],
                           [1, 0, 0, 0, 1, 0, 0, 0, 1],
-                          [c["fx"], 0, c["cx"], 0, 0, c["fy"], c["cy"], 0, 0, 0, 1, 0],
+                          [fx, 0, cx, 0, 0, fy, cy, 0, 0, 0, 1, 0],
                           0, 0, RegionOfInterest(0, 0, 0, 0, False))
 
     # A driver publishes its CameraInfo from the start (gfsvo ros2 reads the camera
@@ -241,7 +295,7 @@ def main():
     while time.time() < deadline:
         if colour_w.get_matched_subscriptions() and depth_w.get_matched_subscriptions():
             break
-        info_w.write(camera_info(*tum.stamp(frames[0][0])))
+        info_w.write(camera_info(frames[0][1], frames[0][2]))
         time.sleep(0.1)
     else:
         raise SystemExit("cyclone: gfsvo-ros2 did not subscribe within the wait")
@@ -249,10 +303,16 @@ def main():
 
     published = {}
     received = {}
+    diagnostics = []
     stop = threading.Event()
 
     def read_odom():
         while not stop.is_set():
+            for a in diag_r.take(N=10):
+                for st in a.status:
+                    diagnostics.append({"received": time.time(), "level": st.level,
+                                        "message": st.message,
+                                        "values": {kv.key: kv.value for kv in st.values}})
             for o in odom_r.take(N=100):
                 now = time.time()
                 key = (o.header.stamp.sec, o.header.stamp.nanosec)
@@ -285,12 +345,17 @@ def main():
     latencies = sorted(1e3 * (received[k][0] - published[k]) for k in received if k in published)
     with open(args.out, "w") as f:
         for (sec, ns), (_, pose, frame_id, child, var_x) in sorted(received.items()):
-            f.write(json.dumps({"stamp": sec + ns * 1e-9, "pose": pose, "frame_id": frame_id,
+            f.write(json.dumps({"stamp": sec + ns * 1e-9, "sec": sec, "nanosec": ns,
+                                "pose": pose, "frame_id": frame_id,
                                 "child_frame_id": child, "var_x": var_x}) + "\n")
+    if args.diagnostics:
+        with open(args.diagnostics, "w") as f:
+            f.writelines(json.dumps(d) + "\n" for d in diagnostics)
     share = len(latencies) / len(frames)
     with open(args.out + ".summary.json", "w") as f:
         json.dump({"frames": len(frames), "received": len(latencies),
-                   "latency_ms": latencies}, f)
+                   "latency_ms": latencies, "published": sorted(published),
+                   "unmatched": sorted(k for k in received if k not in published)}, f)
     p = lambda q: latencies[min(len(latencies) - 1, int(q * len(latencies)))] if latencies else float("nan")
     print(f"cyclone: /odom received for {len(latencies)} of {len(frames)} frames ({100 * share:.1f} %); "
           f"latency colour published -> /odom received p50 {p(0.5):.1f} ms, p99 {p(0.99):.1f} ms",

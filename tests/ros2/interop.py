@@ -130,7 +130,7 @@ def main():
     assert restarts and int(restarts.group(1)) >= 1, "the ROS 2 stage was restarted"
     # Best-effort camera frames are not replayed: those published while the stage was
     # down (its DDS participant rediscovered) get no pose; every later one does.
-    frame_stamps = [t for t, _, _, _ in tum.frames(DATA)]
+    frame_stamps = [float(t) for t, _, _, _ in tum.frames(DATA)]
     received = {round(json.loads(l)["stamp"], 6) for l in open(WORK / "live_fault.odom.jsonl")}
     after = [round(t, 6) in received for t in frame_stamps[100:]]
     gap = after.index(False) if False in after else len(after)

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The ROS 2 interop test (tests/ros2/interop.py says what it covers): sets up its own
-# Python venv from PyPI (cached in target/ros2-venv), builds the executables, runs it.
+# The ROS 2 interop tests (tests/ros2/interop.py and live_checks.py say what they
+# cover): sets up their own Python venv from PyPI (cached in target/ros2-venv), builds
+# the executables, runs them.
 # Skips with a reason when ../shared/data is absent. Loopback only.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -19,3 +20,4 @@ if [ "$(cat $VENV/pins 2>/dev/null)" != "$PINS" ]; then
 fi
 cargo build --release --workspace --bins --quiet
 "$VENV/bin/python" tests/ros2/interop.py
+"$VENV/bin/python" tests/ros2/live_checks.py

@@ -49,8 +49,10 @@ with Writer(out, version=9, storage_plugin=StoragePlugin.MCAP) as bag:
                           d=np.array(c["d"], dtype=np.float64), k=k, r=np.eye(3).reshape(-1), p=p,
                           binning_x=0, binning_y=0,
                           roi=Roi(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False))
-        ns = int(round(t_rgb * 1e9))
+        sec, nanosec = tum.stamp(t_rgb)
+        ns = sec * 1_000_000_000 + nanosec
         bag.write(topics["i"], ns, ts.serialize_cdr(info, CameraInfo.__msgtype__))
         bag.write(topics["c"], ns, ts.serialize_cdr(colour, Image.__msgtype__))
-        bag.write(topics["d"], int(round(t_depth * 1e9)), ts.serialize_cdr(depth, Image.__msgtype__))
+        dsec, dnanosec = tum.stamp(t_depth)
+        bag.write(topics["d"], dsec * 1_000_000_000 + dnanosec, ts.serialize_cdr(depth, Image.__msgtype__))
 print(f"bag written: {out}")

@@ -5,14 +5,16 @@
 //! - [`Image`] / [`ImageView`]: a size plus a contiguous row-major buffer. Algorithms take
 //!   views so that they read memory they do not own (a decoded file, or a shared-memory
 //!   sample in the pipeline) without copying it.
-//! - [`camera`]: the pinhole model with radial-tangential distortion (k1 k2 p1 p2 k3),
-//!   point undistortion and a precomputed [`camera::UndistortMap`] for whole images.
+//! - [`camera`]: the pinhole model with the lens models of ROS 2 drivers (plumb_bob,
+//!   rational_polynomial, equidistant), point undistortion and a precomputed
+//!   [`camera::UndistortMap`] for whole images.
 //! - [`se3`]: the Lie-group helpers (exp / log / skew) with the one perturbation
 //!   convention used by every optimiser of the project.
 //! - [`align`]: least-squares rigid alignment of 3D point pairs (Kabsch).
 //! - [`ids`]: typed ids, so that a frame id never indexes a map point.
 //! - [`descriptor`]: 256-bit binary descriptors and their Hamming distance.
 //! - [`rng`]: a deterministic PRNG (SplitMix64) for sampling and fixtures.
+//! - [`stamp::Stamp`]: capture stamps as integer nanoseconds, exact from source to outputs.
 //!
 //! Conventions (see DESIGN.md): poses are `T_wc` (`world_from_camera`,
 //! `nalgebra::Isometry3<f64>`), camera optical frame x right, y down, z forward;
@@ -38,5 +40,6 @@ pub mod ids;
 mod image;
 pub mod rng;
 pub mod se3;
+pub mod stamp;
 
 pub use image::{DepthImage, GrayImage, Image, ImageError, ImageView, RgbImage};

@@ -35,7 +35,14 @@ pub(crate) struct Entry {
 pub(crate) fn read_entries(dir: &Path) -> Result<Vec<Entry>, DatasetError> {
     let assoc = dir.join("associations.txt");
     let entries = if assoc.is_file() {
-        read_associations(dir, &assoc)?
+        let entries = read_associations(dir, &assoc)?;
+        if entries.is_empty() {
+            return Err(DatasetError::NoFrames {
+                dir: dir.to_path_buf(),
+                reason: "associations.txt lists no frame".to_owned(),
+            });
+        }
+        entries
     } else {
         let rgb = read_list(dir, &dir.join("rgb.txt"))?;
         let depth = read_list(dir, &dir.join("depth.txt"))?;

@@ -93,18 +93,8 @@ fn write_depth8(dir: &Path, rel: &str) {
 
 fn camera(k1: f64) -> Camera {
     Camera::from_config(&CameraConfig {
-        fx: 20.0,
-        fy: 20.0,
-        cx: 7.5,
-        cy: 5.5,
-        width: W,
-        height: H,
         k1,
-        k2: 0.0,
-        p1: 0.0,
-        p2: 0.0,
-        k3: 0.0,
-        readout_s: 0.0,
+        ..CameraConfig::pinhole(20.0, 20.0, 7.5, 5.5, W, H)
     })
     .unwrap()
 }
@@ -284,6 +274,13 @@ fn bad_folders_and_lists_name_the_file_and_line() {
         open_err(dir.path()),
         DatasetError::NoFrames { .. }
     ));
+
+    dir.write("associations.txt", "# only comments\n");
+    let err = open_err(dir.path()).to_string();
+    assert!(
+        err.ends_with("no frames (associations.txt lists no frame)"),
+        "{err}"
+    );
 
     dir.write("associations.txt", "1.0 rgb/0.png 1.0\n");
     let err = open_err(dir.path());

@@ -145,17 +145,13 @@ impl Config {
     /// [`ConfigError::Parse`] naming the line and field that is wrong, including a camera
     /// that cannot exist (non-positive focal length, principal point outside the image).
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ConfigError> {
-        let config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+        let parse_error = |message: String| ConfigError::Parse {
             path: origin.to_owned(),
-            message: e.to_string(),
-        })?;
-        config.camera()?;
-        config
-            .validate_stages()
-            .map_err(|message| ConfigError::Parse {
-                path: origin.to_owned(),
-                message,
-            })?;
+            message: clip_lines(&message),
+        };
+        let config: Config = toml::from_str(text).map_err(|e| parse_error(e.to_string()))?;
+        Camera::from_config(&config.camera).map_err(|e| parse_error(e.to_string()))?;
+        config.validate_stages().map_err(parse_error)?;
         Ok(config)
     }
 
@@ -270,6 +266,23 @@ impl Config {
             message: e.to_string(),
         })
     }
+}
+
+/// Longest line of an error message: a value pasted by mistake (megabytes of it) is
+/// cut, not echoed whole.
+const MAX_MESSAGE_LINE: usize = 200;
+
+/// `message` with every line longer than [`MAX_MESSAGE_LINE`] characters cut.
+fn clip_lines(message: &str) -> String {
+    let clip = |line: &str| match line.char_indices().nth(MAX_MESSAGE_LINE) {
+        Some((end, _)) => format!(
+            "{}... ({} characters in all)",
+            &line[..end],
+            line.chars().count()
+        ),
+        None => line.to_owned(),
+    };
+    message.lines().map(clip).collect::<Vec<_>>().join("\n")
 }
 
 /// Which built-in config a dataset folder's name points to, if any.
@@ -402,7 +415,19 @@ mod tests {
         assert!(e.contains("p.toml") && e.contains("points.features"), "{e}");
         let bad = "[camera]\nfx=-5.0\nfy=5.0\ncx=1.0\ncy=1.0\nwidth=4\nheight=4\n";
         let e = Config::from_toml(bad, "b.toml").unwrap_err().to_string();
-        assert!(e.contains("camera.fx"), "{e}");
+        assert!(e.starts_with("config b.toml: camera.fx"), "{e}");
+        let lens = format!("{bad}model = \"equidistant\"\nk1 = 1e300\n");
+        let e = Config::from_toml(&lens.replace("fx=-5.0", "fx=5.0"), "l.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("config l.toml: camera.model"), "{e}");
+        let huge = format!("{cam}[ros2]\nodom_topic = \"{}\"\n", "x".repeat(10_000_000));
+        let e = Config::from_toml(&huge, "h.toml").unwrap_err().to_string();
+        assert!(
+            e.len() < 1000 && e.contains("characters in all"),
+            "{}",
+            &e[..e.len().min(2000)]
+        );
         let e = Config::from_toml(
             "[camera]\nfx=5.0\nfy=5.0\ncx=1.0\ncy=1.0\nwidth=4\nheight=4\nzz=1\n",
             "c.toml",

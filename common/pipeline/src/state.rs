@@ -7,6 +7,10 @@ use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::path::{Path, PathBuf};
 
+/// The checkpoint of the supervisor: each stage's name and restarts over the run, for
+/// the ROS 2 stage's `/diagnostics`.
+pub const RESTARTS: &str = "restarts.bin";
+
 /// A checkpoint could not be written or read.
 #[derive(Debug, thiserror::Error)]
 pub enum StateError {

@@ -7,6 +7,7 @@ use crate::cdr::{self, CdrError};
 use crate::msg::{CameraInfo, Image};
 use crate::pairing::{Paired, Pairer};
 use crate::schema::MessageSchema;
+use gfs_core::stamp::Stamp;
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::fs::File;
@@ -175,6 +176,16 @@ impl BagReader {
                         self.topics.colour,
                         stamp as f64 * 1e-9,
                         self.topics.depth
+                    );
+                    continue;
+                }
+                Some(Paired::NotAfter { stamp, last }) => {
+                    tracing::warn!(
+                        "{}: {} at {} is not after the frame before it, at {}; skipped",
+                        self.path.display(),
+                        self.topics.colour,
+                        Stamp::from_nanos(stamp),
+                        Stamp::from_nanos(last)
                     );
                     continue;
                 }

@@ -32,6 +32,8 @@ pub struct Ros2Config {
     pub tf_topic: String,
     /// `std_msgs/String` tracking status output.
     pub status_topic: String,
+    /// `diagnostic_msgs/DiagnosticArray` output, once a second.
+    pub diagnostics_topic: String,
     /// `header.frame_id` of the odometry (REP 105 `odom`).
     pub odom_frame: String,
     /// Parent frame of the loop correction `map -> odom` on `/tf` (REP 105 `map`),
@@ -65,6 +67,7 @@ impl Default for Ros2Config {
             odom_topic: "/odom".to_owned(),
             tf_topic: "/tf".to_owned(),
             status_topic: "/gfsvo/status".to_owned(),
+            diagnostics_topic: "/diagnostics".to_owned(),
             odom_frame: "odom".to_owned(),
             map_frame: "map".to_owned(),
             base_frame: "base_link".to_owned(),
@@ -90,6 +93,7 @@ impl Ros2Config {
             ("odom_topic", &self.odom_topic),
             ("tf_topic", &self.tf_topic),
             ("status_topic", &self.status_topic),
+            ("diagnostics_topic", &self.diagnostics_topic),
         ] {
             if !topic.starts_with('/') || topic.len() < 2 || topic.contains(char::is_whitespace) {
                 return Err(format!(

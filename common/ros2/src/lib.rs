@@ -15,6 +15,8 @@
 //! - [`pairing::Pairer`]: approximate-time pairing of colour and depth within a slop.
 //! - [`odom::OdometryPublisherState`]: camera poses and their covariance as `/odom`,
 //!   `/tf` (REP 105 `odom -> base_link` through the camera-in-base extrinsic), status.
+//! - [`diagnostics::DiagnosticsWindow`]: `/diagnostics` over the last second (rates,
+//!   latency, share tracked, restarts), on the wall clock live or the camera's in bags.
 //! - [`bag`] (feature `bag`): ROS 2 bags in MCAP, read as frames and written.
 //! - [`config::Ros2Config`]: the `[ros2]` table of a config.
 #![warn(missing_docs)]
@@ -24,6 +26,7 @@ pub mod bag;
 pub mod camera_info;
 pub mod cdr;
 pub mod config;
+pub mod diagnostics;
 pub mod image;
 pub mod msg;
 pub mod odom;

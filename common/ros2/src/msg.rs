@@ -3,6 +3,7 @@
 //! `uint8[]` is `serde_bytes` (one length prefix, then the bytes); fixed arrays longer
 //! than 32 go through [`fixed`].
 
+use gfs_core::stamp::Stamp;
 use serde::{Deserialize, Serialize};
 
 /// `builtin_interfaces/Time`.
@@ -15,48 +16,40 @@ pub struct Time {
 }
 
 impl Time {
-    /// The stamp `seconds` after the epoch, rounded to the nanosecond.
+    /// The stamp `seconds` stands for ([`Stamp::from_secs`]); zero when not finite.
     pub fn from_secs(seconds: f64) -> Self {
-        // Whole seconds apart: `seconds * 1e9` of a 2011 stamp has only ~100 ns steps,
-        // while the fraction alone is exact.
-        let whole = seconds.floor();
-        let nanos = ((seconds - whole) * 1e9).round() as i64;
-        let total = whole as i64 * 1_000_000_000 + nanos;
-        Self {
-            sec: total.div_euclid(1_000_000_000) as i32,
-            nanosec: total.rem_euclid(1_000_000_000) as u32,
-        }
+        Stamp::from_secs(seconds)
+            .map(Self::from)
+            .unwrap_or_default()
     }
 
-    /// Seconds after the epoch: the `f64` nearest to `sec.nanosec` written in decimal,
-    /// so that a stamp read from a TUM list (`1305031229.796909`) and the same stamp
-    /// carried by a message give the same number (the motion model divides by their
-    /// differences; the sum `sec + nanosec * 1e-9` differs in the last bits).
+    /// Seconds after the epoch ([`Stamp::secs`]: the `f64` nearest to `sec.nanosec`
+    /// written in decimal, so a stamp read from a TUM list and the same stamp carried by
+    /// a message give the same number).
     pub fn secs(&self) -> f64 {
-        if self.sec >= 0 && self.nanosec < 1_000_000_000 {
-            let mut text = [0u8; 24];
-            let mut cursor = std::io::Cursor::new(&mut text[..]);
-            if std::io::Write::write_fmt(
-                &mut cursor,
-                format_args!("{}.{:09}", self.sec, self.nanosec),
-            )
-            .is_ok()
-            {
-                let len = cursor.position() as usize;
-                if let Some(v) = std::str::from_utf8(&text[..len])
-                    .ok()
-                    .and_then(|t| t.parse().ok())
-                {
-                    return v;
-                }
-            }
-        }
-        f64::from(self.sec) + f64::from(self.nanosec) * 1e-9
+        self.stamp().map_or(
+            f64::from(self.sec) + f64::from(self.nanosec) * 1e-9,
+            Stamp::secs,
+        )
     }
 
     /// Nanoseconds after the epoch (exact, for ordering and MCAP log times).
     pub fn nanos(&self) -> i64 {
         i64::from(self.sec) * 1_000_000_000 + i64::from(self.nanosec)
+    }
+}
+
+impl From<Stamp> for Time {
+    fn from(stamp: Stamp) -> Self {
+        let (sec, nanosec) = stamp.sec_nanosec();
+        Self { sec, nanosec }
+    }
+}
+
+impl Time {
+    /// The stamp, exact; `None` when `nanosec` is not below 1e9.
+    pub fn stamp(&self) -> Option<Stamp> {
+        Stamp::from_sec_nanosec(self.sec, self.nanosec)
     }
 }
 
@@ -307,10 +300,10 @@ mod tests {
 
     #[test]
     fn stamps_in_seconds_are_the_nearest_double_of_their_decimal() {
-        // The double of 1305031229.796909 is 1305031229.79690909385...: within its
-        // 240 ns spacing, and the round trip is exact.
+        // The double of 1305031229.796909 is 1305031229.79690909385... (240 ns
+        // spacing): the stamp it stands for is the decimal, exactly, both ways.
         let t = Time::from_secs(1305031229.796909);
-        assert_eq!((t.sec, t.nanosec), (1305031229, 796_909_094));
+        assert_eq!((t.sec, t.nanosec), (1305031229, 796_909_000));
         assert_eq!(t.secs(), 1305031229.796909);
         assert_eq!(t.secs(), "1305031229.796909".parse::<f64>().unwrap());
         let early = Time {

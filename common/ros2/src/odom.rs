@@ -10,13 +10,14 @@ use crate::msg::{
     Header, Odometry, Pose, PoseWithCovariance, Quaternion, StringMsg, TfMessage, Time, Transform,
     TransformStamped, Twist, TwistWithCovariance, Vector3,
 };
+use gfs_core::stamp::Stamp;
 use nalgebra::{Isometry3, Matrix6, Quaternion as NaQuaternion, Translation3, UnitQuaternion};
 
 /// One frame's output of the tracker.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TrackedPose {
-    /// Colour image stamp, seconds.
-    pub stamp: f64,
+    /// The colour image's stamp, as received.
+    pub stamp: Stamp,
     /// Camera in the pipeline's world (first camera frame).
     pub world_from_camera: Isometry3<f64>,
     /// Covariance of the pose (camera-frame perturbation: translation, rotation), if the
@@ -38,7 +39,7 @@ const UNKNOWN_VARIANCE: f64 = 1.0;
 pub struct OdometryPublisherState {
     config: Ros2Config,
     camera_in_base: Isometry3<f64>,
-    previous: Option<(f64, Isometry3<f64>, Matrix6<f64>)>,
+    previous: Option<(Stamp, Isometry3<f64>, Matrix6<f64>)>,
 }
 
 /// The messages of one frame.
@@ -99,7 +100,7 @@ impl OdometryPublisherState {
         }
         let twist = match self.previous {
             Some((t0, p0, c0)) if pose.stamp > t0 => {
-                let dt = pose.stamp - t0;
+                let dt = pose.stamp.secs_since(t0);
                 let motion = gfs_core::se3::log(&(p0.inverse() * base)) / dt;
                 // Two independent pose errors over dt (first order).
                 let cov = (covariance + c0) / (dt * dt);
@@ -112,7 +113,7 @@ impl OdometryPublisherState {
         };
         self.previous = Some((pose.stamp, base, covariance));
         let header = Header {
-            stamp: Time::from_secs(pose.stamp),
+            stamp: Time::from(pose.stamp),
             frame_id: self.config.odom_frame.clone(),
         };
         let transform = to_transform(&base);

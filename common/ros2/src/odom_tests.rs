@@ -4,7 +4,7 @@ use nalgebra::{Matrix6, Vector3 as V3, Vector6};
 
 fn pose(stamp: f64, x_optical_z: f64, status: &'static str) -> TrackedPose {
     TrackedPose {
-        stamp,
+        stamp: Stamp::from_secs(stamp).unwrap(),
         world_from_camera: Isometry3::translation(0.0, 0.0, x_optical_z),
         covariance: Some(Matrix6::from_diagonal(&Vector6::new(
             1.0, 2.0, 3.0, 4.0, 5.0, 6.0,

@@ -1,7 +1,9 @@
 //! Approximate-time pairing of colour and depth by stamp (message_filters'
 //! ApproximateTime for two topics, simplified): a colour image takes the depth image
 //! nearest in time within the slop, decided once a depth at or after its stamp arrived
-//! (no later depth can be nearer); a colour with none in the slop is dropped.
+//! (no later depth can be nearer); a colour with none in the slop is dropped, and so is
+//! a colour stamped at or before the last one paired (a repeated or backwards stamp
+//! would give two poses for one instant, or poses going back in time).
 
 use std::collections::VecDeque;
 
@@ -12,6 +14,13 @@ pub enum Paired<C, D> {
     Pair(C, D),
     /// A colour image with no depth within the slop, by stamp (ns).
     ColourWithoutDepth(i64),
+    /// A colour image stamped `stamp` (ns), not after the last one paired, `last`: dropped.
+    NotAfter {
+        /// Its stamp, ns.
+        stamp: i64,
+        /// The stamp of the last colour image paired, ns.
+        last: i64,
+    },
 }
 
 /// Queues of colour and depth messages waiting for their partner.
@@ -20,6 +29,7 @@ pub struct Pairer<C, D> {
     capacity: usize,
     colour: VecDeque<(i64, C)>,
     depth: VecDeque<(i64, D)>,
+    last_paired: Option<i64>,
 }
 
 impl<C, D> Pairer<C, D> {
@@ -30,7 +40,17 @@ impl<C, D> Pairer<C, D> {
             capacity: capacity.max(1),
             colour: VecDeque::new(),
             depth: VecDeque::new(),
+            last_paired: None,
         }
+    }
+
+    /// Starts the stamps over from `stamp_ns` (a camera restarted: its clock went back):
+    /// colour images from `stamp_ns` on pair again, and depth images stamped after it
+    /// (from before the restart) are forgotten.
+    pub fn restart(&mut self, stamp_ns: i64) {
+        self.last_paired = None;
+        let newest = stamp_ns + self.slop_ns;
+        self.depth.retain(|(t, _)| *t <= newest);
     }
 
     /// Queues a colour image stamped `stamp_ns`.
@@ -72,11 +92,15 @@ impl<C, D> Pairer<C, D> {
             .filter(|(_, (t, _))| (t - stamp).abs() <= self.slop_ns)
             .map(|(i, _)| i);
         let (_, colour) = self.colour.pop_front()?;
+        if let Some(last) = self.last_paired.filter(|&last| stamp <= last) {
+            return Some(Paired::NotAfter { stamp, last });
+        }
         match best {
             Some(i) => {
                 // Depth older than the match cannot pair with a later colour image.
                 self.depth.drain(..i);
                 let (_, depth) = self.depth.pop_front()?;
+                self.last_paired = Some(stamp);
                 Some(Paired::Pair(colour, depth))
             }
             None => Some(Paired::ColourWithoutDepth(stamp)),
@@ -124,5 +148,36 @@ mod tests {
         }
         assert_eq!(p.decide_next(), Some(Paired::ColourWithoutDepth(0)));
         assert_eq!(p.decide_next(), None);
+    }
+
+    #[test]
+    fn repeated_and_backwards_stamps_are_dropped_until_a_restart() {
+        let mut p = Pairer::new(0.01, 8);
+        p.push_colour(100 * MS, "c100");
+        p.push_depth(100 * MS, "d100");
+        assert_eq!(p.decide_next(), Some(Paired::Pair("c100", "d100")));
+        p.push_colour(100 * MS, "again");
+        p.push_depth(101 * MS, "d101");
+        let not_after = Paired::NotAfter {
+            stamp: 100 * MS,
+            last: 100 * MS,
+        };
+        assert_eq!(p.decide_next(), Some(not_after));
+        p.push_colour(50 * MS, "back");
+        assert_eq!(
+            p.decide_next(),
+            Some(Paired::NotAfter {
+                stamp: 50 * MS,
+                last: 100 * MS
+            })
+        );
+        p.push_colour(133 * MS, "c133");
+        p.push_depth(133 * MS, "d133");
+        assert_eq!(p.decide_next(), Some(Paired::Pair("c133", "d133")));
+        // The camera restarts its clock at 5 ms: pairs from there on.
+        p.restart(5 * MS);
+        p.push_colour(5 * MS, "c5");
+        p.push_depth(5 * MS, "d5");
+        assert_eq!(p.decide_next(), Some(Paired::Pair("c5", "d5")));
     }
 }

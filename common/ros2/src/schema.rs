@@ -113,3 +113,19 @@ pub const CAMERA_INFO: MessageSchema = MessageSchema {
            uint32 binning_y\nRegionOfInterest roi\n",
     dependencies: &[HEADER, TIME, ROI],
 };
+
+/// `diagnostic_msgs/msg/DiagnosticArray`.
+pub const DIAGNOSTIC_ARRAY: MessageSchema = MessageSchema {
+    name: "diagnostic_msgs/msg/DiagnosticArray",
+    main: "std_msgs/Header header\nDiagnosticStatus[] status\n",
+    dependencies: &[
+        HEADER,
+        TIME,
+        (
+            "diagnostic_msgs/DiagnosticStatus",
+            "byte OK=0\nbyte WARN=1\nbyte ERROR=2\nbyte STALE=3\nbyte level\nstring name\n\
+             string message\nstring hardware_id\nKeyValue[] values\n",
+        ),
+        ("diagnostic_msgs/KeyValue", "string key\nstring value\n"),
+    ],
+};

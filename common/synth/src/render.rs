@@ -150,19 +150,47 @@ pub(crate) fn to_u8(v: f32) -> u8 {
     (v * 255.0 + 0.5).clamp(0.0, 255.0) as u8
 }
 
-/// Renders into reusable buffers (pass 1: centre rays; pass 2: antialiasing).
+/// Renders into reusable buffers (pass 1: centre rays; pass 2: antialiasing), one ray
+/// per pixel of `camera`'s image.
 pub(crate) fn render_into(
     scene: &Scene,
     camera: &PinholeCamera,
     world_from_camera: &Isometry3<f64>,
     out: &mut RenderBuffers,
 ) {
-    let (w, h) = (camera.width, camera.height);
+    render_rays_into(scene, camera, world_from_camera, None, out);
+}
+
+/// The rays of a lens: the image is `width x height`, and its pixel `i` looks along the
+/// ray through `positions[i]` of the ideal camera the view is cast through.
+pub(crate) struct Rays<'a> {
+    pub width: usize,
+    pub height: usize,
+    pub positions: &'a [[f32; 2]],
+}
+
+/// [`render_into`] with the rays of `rays` when given (an image through a lens).
+pub(crate) fn render_rays_into(
+    scene: &Scene,
+    camera: &PinholeCamera,
+    world_from_camera: &Isometry3<f64>,
+    rays: Option<&Rays<'_>>,
+    out: &mut RenderBuffers,
+) {
+    let (w, h) = rays.map_or((camera.width, camera.height), |r| (r.width, r.height));
     out.resize(w, h);
     if w == 0 || h == 0 {
         return;
     }
     let view = View::new(scene, camera, world_from_camera);
+    // Where pixel (x, y) looks, in the view's pixels.
+    let ray = |x: usize, y: usize| match rays {
+        Some(r) => {
+            let [u, v] = r.positions[y * w + x];
+            (f64::from(u), f64::from(v))
+        }
+        None => (x as f64, y as f64),
+    };
     let rows = ROWS_PER_TASK * w;
     let tasks: Vec<_> = out
         .colour
@@ -175,7 +203,8 @@ pub(crate) fn render_into(
     for_each_parallel(tasks, |(k, (((colour, depth), cos), key))| {
         for (i, px) in colour.iter_mut().enumerate() {
             let (x, y) = (i % w, k * ROWS_PER_TASK + i / w);
-            let s = view.sample(x, y, x as f64, y as f64);
+            let (u, v) = ray(x, y);
+            let s = view.sample(u, v);
             *px = s.colour;
             depth[i] = s.depth;
             cos[i] = s.cos;
@@ -188,7 +217,8 @@ pub(crate) fn render_into(
         for (i, px) in colour.iter_mut().enumerate() {
             let (x, y) = (i % w, k * ROWS_PER_TASK + i / w);
             if needs_antialiasing(keys, w, h, x, y) {
-                *px = view.supersample(x, y, *px);
+                let (u, v) = ray(x, y);
+                *px = view.supersample(u, v, *px);
             }
         }
     });
@@ -321,8 +351,11 @@ impl<'a> View<'a> {
         }
     }
 
-    /// Traces the ray through (`u`, `v`) with the quads of pixel (`x`, `y`)'s tile.
-    fn sample(&self, x: usize, y: usize, u: f64, v: f64) -> Sample {
+    /// Traces the ray through (`u`, `v`) with the quads of the tile of the pixel nearest
+    /// to it.
+    fn sample(&self, u: f64, v: f64) -> Sample {
+        let x = (u.round().max(0.0) as usize).min(self.camera.width - 1);
+        let y = (v.round().max(0.0) as usize).min(self.camera.height - 1);
         let tile = &self.tiles[(y / TILE) * self.tiles_x + x / TILE];
         let d = Vector3::new(
             (u - self.camera.cx) / self.camera.fx,
@@ -376,16 +409,16 @@ impl<'a> View<'a> {
         }
     }
 
-    /// Mean colour of the 3x3 sub-pixel grid of pixel (`x`, `y`); `centre` is the colour
-    /// already traced at the pixel centre.
-    fn supersample(&self, x: usize, y: usize, centre: [f32; 3]) -> [f32; 3] {
+    /// Mean colour of the 3x3 sub-pixel grid around (`u`, `v`); `centre` is the colour
+    /// already traced there.
+    fn supersample(&self, u: f64, v: f64, centre: [f32; 3]) -> [f32; 3] {
         let mut sum = centre;
         for dy in AA_OFFSETS {
             for dx in AA_OFFSETS {
                 if dx == 0.0 && dy == 0.0 {
                     continue;
                 }
-                let c = self.sample(x, y, x as f64 + dx, y as f64 + dy).colour;
+                let c = self.sample(u + dx, v + dy).colour;
                 for k in 0..3 {
                     sum[k] += c[k];
                 }

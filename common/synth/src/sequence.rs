@@ -1,11 +1,12 @@
 //! A synthetic sequence: a scene, a trajectory and a noise model, rendered on demand.
 
+use crate::lens::Lens;
 use crate::noise::{self, AUTO_EXPOSURE_TARGET, FrameSettings, NoiseConfig};
 use crate::render::{RenderBuffers, render_into};
 use crate::rng::SplitMix64;
 use crate::scene::{Scene, SceneKind};
 use crate::trajectory::{self, TrajectoryKind};
-use gfs_core::camera::PinholeCamera;
+use gfs_core::camera::{Distortion, PinholeCamera};
 use gfs_core::{DepthImage, GrayImage, RgbImage};
 use nalgebra::Isometry3;
 use serde::Deserialize;
@@ -29,6 +30,8 @@ pub struct SynthConfig {
     /// Intrinsics and image size. Default 640x480, fx = fy = 525, cx = 319.5,
     /// cy = 239.5 (`configs/synthetic.toml`, the TUM / Kinect nominal values).
     pub camera: PinholeCamera,
+    /// The lens the frames are recorded through. Default none (an ideal pinhole).
+    pub distortion: Distortion,
     /// Frame rate, Hz. Default 30 (Kinect).
     pub rate_hz: f64,
     /// Timestamp of frame 0, seconds. Default 1000.0 (a fixed epoch, so that file names
@@ -45,6 +48,7 @@ impl Default for SynthConfig {
             seed: 1,
             noise: NoiseConfig::default(),
             camera: Self::default_camera(),
+            distortion: Distortion::default(),
             rate_hz: 30.0,
             start_time: 1000.0,
         }
@@ -113,6 +117,7 @@ pub struct SynthSequence {
     scene: Scene,
     poses: Vec<Isometry3<f64>>,
     gains: Vec<f64>,
+    lens: Option<Lens>,
 }
 
 impl SynthSequence {
@@ -137,7 +142,10 @@ impl SynthSequence {
                 automatic.as_ref().map_or(gain, |a| gain * a[i])
             })
             .collect();
+        let lens =
+            (!config.distortion.is_zero()).then(|| Lens::new(&config.camera, config.distortion));
         SynthSequence {
+            lens,
             config: SynthConfig {
                 rate_hz: rate,
                 ..config
@@ -210,7 +218,10 @@ impl SynthSequence {
         frame: &mut SynthFrame,
     ) {
         let pose = self.pose(i);
-        render_into(&self.scene, &self.config.camera, &pose, scratch);
+        match &self.lens {
+            Some(lens) => lens.render(&self.scene, &pose, scratch),
+            None => render_into(&self.scene, &self.config.camera, &pose, scratch),
+        }
         let settings = FrameSettings {
             seed: self.config.seed,
             frame: i,

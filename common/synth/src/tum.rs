@@ -126,10 +126,25 @@ impl SynthSequence {
             );
         }
         let cam = c.camera;
+        let d = &c.distortion;
+        let (lens_comment, mut lens_values) = if d.is_zero() {
+            ("Ideal pinhole (no distortion)".to_owned(), String::new())
+        } else {
+            let name = d.model.name();
+            (
+                format!("Recorded through a lens, model {name}"),
+                format!("model = \"{name}\"\n"),
+            )
+        };
+        if !d.is_zero() {
+            for (n, v) in d.model.coefficient_names().iter().zip(d.coefficients()) {
+                let _ = writeln!(lens_values, "{n} = {v:?}");
+            }
+        }
         let mut marker = format!(
             "# Written by `gfsvo synth`: scene {}, trajectory {}, {} frames, seed {}.\n\
-             # Ideal pinhole (no distortion); ground truth in groundtruth.txt.\n\
-             [camera]\nfx = {:?}\nfy = {:?}\ncx = {:?}\ncy = {:?}\nwidth = {}\nheight = {}\n\n\
+             # {lens_comment}; ground truth in groundtruth.txt.\n\
+             [camera]\nfx = {:?}\nfy = {:?}\ncx = {:?}\ncy = {:?}\nwidth = {}\nheight = {}\n{lens_values}\n\
              [depth]\nscale = {:?}\nmin_m = 0.1\nmax_m = 10.0\n",
             c.scene,
             c.trajectory,

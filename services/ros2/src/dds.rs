@@ -5,6 +5,7 @@
 //! publishers (reliable).
 
 use gfs_ros2::Ros2Config;
+use gfs_ros2::diagnostics::DiagnosticArray;
 use gfs_ros2::msg::{CameraInfo, Image, Odometry, StringMsg, TfMessage};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::qos::{History, QosProfile};
@@ -30,6 +31,8 @@ pub struct Endpoints {
     pub tf: Publisher<TfMessage>,
     /// Status.
     pub status: Publisher<StringMsg>,
+    /// `/diagnostics`.
+    pub diagnostics: Publisher<DiagnosticArray>,
     _node: Node,
 }
 
@@ -161,13 +164,21 @@ pub fn endpoints(config: &Ros2Config) -> Result<Endpoints, DdsError> {
         "String",
         &output,
     )?;
+    let diagnostics_topic = topic(
+        &mut node,
+        &config.diagnostics_topic,
+        "diagnostic_msgs",
+        "DiagnosticArray",
+        &output,
+    )?;
     Ok(Endpoints {
         colour: node.create_subscription(&colour_topic, Some(sensor.clone()))?,
         depth: node.create_subscription(&depth_topic, Some(sensor.clone()))?,
         camera_info: node.create_subscription(&info_topic, Some(sensor))?,
         odom: node.create_publisher(&odom_topic, Some(output.clone()))?,
         tf: node.create_publisher(&tf_topic, Some(output.clone()))?,
-        status: node.create_publisher(&status_topic, Some(output))?,
+        status: node.create_publisher(&status_topic, Some(output.clone()))?,
+        diagnostics: node.create_publisher(&diagnostics_topic, Some(output))?,
         _node: node,
     })
 }

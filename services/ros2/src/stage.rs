@@ -2,18 +2,22 @@
 //! the source's role in the run (its stamps are the source's in `profile.json`).
 
 use crate::dds::{DdsError, Endpoints, camera_info_only, endpoints};
-use gfs_ipc::{FrameLayout, IpcRun, RunId, Stage, ipc, topics};
+use gfs_core::stamp::Stamp;
+use gfs_ipc::{FrameLayout, IpcRun, RunId, Stage, ipc, monotonic_ns, topics};
 use gfs_pipeline::service::StageArgs;
 use gfs_pipeline::stages::StageContext;
 use gfs_pipeline::stages::ros2_frames::publish_pair;
+use gfs_pipeline::state::RESTARTS;
 use gfs_pipeline::wire::WirePose;
 use gfs_ros2::camera_info::{camera_from_info, cameras_differ};
+use gfs_ros2::diagnostics::DiagnosticsWindow;
 use gfs_ros2::image::{FrameConverter, Received};
-use gfs_ros2::msg::Image;
+use gfs_ros2::msg::{Header, Image, Time};
 use gfs_ros2::odom::{OdometryPublisherState, TrackedPose};
 use gfs_ros2::pairing::{Paired, Pairer};
+use std::collections::VecDeque;
 use std::io::Write;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// The checkpoint: the id of the next frame (a restarted stage goes on from it).
 const CHECKPOINT: &str = "ros2.bin";
@@ -21,6 +25,13 @@ const CHECKPOINT: &str = "ros2.bin";
 const FRAMES_FILE: &str = "ros2-frames.txt";
 /// How long the loop sleeps on the pose topic when nothing came.
 const IDLE: Duration = Duration::from_millis(1);
+/// Colour stamps kept by frame id for `/odom`: more frames than the pipeline holds.
+const STAMPS_KEPT: usize = 256;
+/// How often `/diagnostics` is published.
+const REPORT_EVERY: Duration = Duration::from_secs(1);
+/// A colour stamp this far before the last one (ns) is a camera that restarted its
+/// clock, not a late or repeated frame.
+const CAMERA_RESTART_NS: i64 = 1_000_000_000;
 
 /// Runs the stage until SIGINT / SIGTERM.
 ///
@@ -62,20 +73,23 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
     let mut odometry = OdometryPublisherState::new(ros2);
     let mut camera_checked = false;
     let mut last_published: Option<u64> = None;
+    let mut diagnostics = DiagnosticsWindow::new();
+    let mut stamps = VecDeque::with_capacity(STAMPS_KEPT);
+    let mut next_report = Instant::now() + REPORT_EVERY;
     while !ctx.stopping() {
         let mut busy = take_images(&dds, &mut pairer, ros2);
         if !camera_checked && let Ok(Some((info, _))) = dds.camera_info.take() {
             camera_checked = true;
             match camera_from_info(&info, &ros2.camera_info_topic, config.camera.readout_s) {
                 Ok(c) if cameras_differ(&c, &camera) => tracing::warn!(
-                    "{}: the driver's camera {:?} differs from the config's {:?}; \
-                     tracking with the config's (restart with a matching --config)",
+                    "{}: the driver's camera {:?} differs from the one the run started \
+                     with, {:?}; tracking on with the latter (restart the run to change)",
                     ros2.camera_info_topic,
-                    c.pinhole,
-                    camera.pinhole
+                    c,
+                    camera
                 ),
                 Ok(_) => {}
-                Err(e) => tracing::warn!("{e}; tracking with the config's camera"),
+                Err(e) => tracing::warn!("{e}; tracking on with the camera the run started with"),
             }
         }
         while let Some(decision) = pairer.decide_next() {
@@ -93,23 +107,41 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
                     match publish_pair(&publisher, &layout, &mut converter, next_id, colour, depth)?
                     {
                         Ok(()) => {
+                            diagnostics.frame_received(monotonic_ns() as i64);
+                            let stamp = colour.image.header.stamp.stamp().unwrap_or_default();
                             if let Some(file) = frames_file.as_mut() {
-                                writeln!(
-                                    file,
-                                    "{next_id} {:.9}",
-                                    colour.image.header.stamp.secs()
-                                )?;
+                                writeln!(file, "{next_id} {stamp}")?;
                             }
+                            if stamps.len() == STAMPS_KEPT {
+                                stamps.pop_front();
+                            }
+                            stamps.push_back((next_id, stamp));
                             next_id += 1;
                             state.write(CHECKPOINT, &next_id, &mut scratch)?;
                         }
                         Err(e) => tracing::warn!("{e}; frame skipped"),
                     }
                 }
-                Paired::ColourWithoutDepth(stamp) => tracing::warn!(
-                    "{} at {:.6} s: no {} image within {} s; frame skipped",
+                Paired::NotAfter { stamp, last } if last - stamp > CAMERA_RESTART_NS => {
+                    tracing::warn!(
+                        "{}: the stamps went back from {} to {}: the camera restarted; \
+                         going on from there",
+                        ros2.colour_topic,
+                        Stamp::from_nanos(last),
+                        Stamp::from_nanos(stamp)
+                    );
+                    pairer.restart(stamp);
+                }
+                Paired::NotAfter { stamp, last } => tracing::warn!(
+                    "{} at {}: not after the frame before it, at {}; frame skipped",
                     ros2.colour_topic,
-                    stamp as f64 * 1e-9,
+                    Stamp::from_nanos(stamp),
+                    Stamp::from_nanos(last)
+                ),
+                Paired::ColourWithoutDepth(stamp) => tracing::warn!(
+                    "{} at {}: no {} image within {} s; frame skipped",
+                    ros2.colour_topic,
+                    Stamp::from_nanos(stamp),
                     ros2.depth_topic,
                     ros2.slop_s
                 ),
@@ -128,8 +160,19 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
                 continue;
             }
             last_published = Some(pose.id.0);
+            let received_ns = sample.user_header().stamp(Stage::Source).received_ns;
+            let now_ns = monotonic_ns();
+            let latency_s = (received_ns != 0 && now_ns >= received_ns)
+                .then(|| (now_ns - received_ns) as f64 * 1e-9);
+            // The stamp of the frame's colour image as received, bit for bit.
+            let stamp = stamps
+                .iter()
+                .find(|(id, _)| *id == pose.id.0)
+                .map(|(_, stamp)| *stamp)
+                .or_else(|| Stamp::from_secs(pose.timestamp))
+                .unwrap_or_default();
             let messages = odometry.messages(&TrackedPose {
-                stamp: pose.timestamp,
+                stamp,
                 world_from_camera: pose.world_from_camera,
                 covariance: wire.covariance(),
                 status: pose.status.as_str(),
@@ -142,6 +185,26 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
                 publish(dds.tf.publish(tf), &ros2.tf_topic);
             }
             publish(dds.status.publish(messages.status), &ros2.status_topic);
+            diagnostics.pose_published(now_ns as i64, latency_s, pose.status.as_str());
+        }
+        if Instant::now() >= next_report {
+            next_report += REPORT_EVERY;
+            // The supervisor writes the restarts once a stage restarted; none before.
+            let restarts = state
+                .read(RESTARTS)
+                .ok()
+                .flatten()
+                .unwrap_or_else(|| Stage::ALL.map(|s| (s.name().to_owned(), 0)).to_vec());
+            let report = diagnostics.report(
+                monotonic_ns() as i64,
+                Header {
+                    stamp: Time::from(Stamp::now()),
+                    frame_id: String::new(),
+                },
+                &ros2.colour_topic,
+                &restarts,
+            );
+            publish(dds.diagnostics.publish(report), &ros2.diagnostics_topic);
         }
         if !busy {
             publisher.update_connections()?;
@@ -171,21 +234,7 @@ pub fn probe_camera(
             Ok(Some((info, _))) => {
                 match camera_from_info(&info, &ros2.camera_info_topic, config.camera.readout_s) {
                     Ok(camera) => {
-                        let (p, d) = (&camera.pinhole, &camera.distortion);
-                        let table = gfs_core::camera::CameraConfig {
-                            fx: p.fx,
-                            fy: p.fy,
-                            cx: p.cx,
-                            cy: p.cy,
-                            width: p.width,
-                            height: p.height,
-                            k1: d.k1,
-                            k2: d.k2,
-                            p1: d.p1,
-                            p2: d.p2,
-                            k3: d.k3,
-                            readout_s: config.camera.readout_s,
-                        };
+                        let table = camera.config(config.camera.readout_s);
                         std::fs::write(path, toml::to_string(&table)?)?;
                         return Ok(());
                     }

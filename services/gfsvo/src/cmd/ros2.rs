@@ -3,11 +3,12 @@
 //! and the status) until SIGINT / SIGTERM; then writes `trajectory.txt` (one pose per
 //! frame received, stamped with the colour stamp), `status.txt` and `profile.json`.
 
-use super::ros2_io::{camera_values, record_mcap, write_config};
+use super::ros2_io::{RunDetails, camera_values, record_mcap, write_config};
 use super::run::write_outputs;
 use crate::CliResult;
 use crate::pipeline::{self, PipelineOptions};
 use gfs_core::camera::{Camera, CameraConfig};
+use gfs_core::stamp::Stamp;
 use gfs_ipc::{Mode, RunId};
 use gfs_pipeline::stages::StageSettings;
 use gfs_ros2::camera_info::cameras_differ;
@@ -104,7 +105,7 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
             Some(&config_path),
             &args.out,
             "camera",
-            camera_values(&camera),
+            camera_values(&camera)?,
             &config_path,
         )?;
     }
@@ -136,11 +137,22 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
     );
     let outcome = pipeline::run(&options)?;
     outcome.profile.write_json(&args.out.join("profile.json"))?;
-    let timestamps = frames_received(&state_dir.join(FRAMES_FILE))?;
+    let stamps = frames_received(&state_dir.join(FRAMES_FILE))?;
+    let timestamps: Vec<f64> = stamps.iter().map(|s| s.secs()).collect();
     let poses = pipeline::complete_trajectory(&outcome.received, &timestamps);
     write_outputs(&args.out, &poses)?;
     if let Some(path) = &args.mcap {
-        record_mcap(path, &config, &poses, &outcome.covariances)?;
+        let restarts: Vec<(String, u32)> = outcome
+            .restarts
+            .iter()
+            .map(|(stage, n)| ((*stage).to_owned(), *n))
+            .collect();
+        let details = RunDetails {
+            profile: Some(&outcome.profile),
+            restarts: &restarts,
+            stamps: &stamps,
+        };
+        record_mcap(path, &config, &poses, &outcome.covariances, &details)?;
     }
     let mut counts = BTreeMap::<&str, usize>::new();
     for pose in &poses {
@@ -229,7 +241,7 @@ fn overrides(args: &Ros2Args) -> Vec<(&'static str, toml::Value)> {
 
 /// The colour stamps of the frames the ROS 2 stage received, by frame id (lines
 /// `id stamp`, appended by the stage; a restarted stage goes on from the last id).
-fn frames_received(path: &Path) -> CliResult<Vec<f64>> {
+fn frames_received(path: &Path) -> CliResult<Vec<Stamp>> {
     let text = match std::fs::read_to_string(path) {
         Ok(text) => text,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
@@ -241,7 +253,7 @@ fn frames_received(path: &Path) -> CliResult<Vec<f64>> {
         let parsed = parts
             .next()
             .and_then(|id| id.parse::<u64>().ok())
-            .zip(parts.next().and_then(|s| s.parse::<f64>().ok()));
+            .zip(parts.next().and_then(|s| s.parse::<Stamp>().ok()));
         match parsed {
             Some((id, stamp)) => {
                 stamps.insert(id, stamp);
@@ -275,8 +287,25 @@ mod tests {
             frames_received(&path).unwrap().is_empty(),
             "no file: no frame"
         );
-        std::fs::write(&path, "0 10.5\n1 10.6\nnot a line\n3 10.8\n").unwrap();
-        assert_eq!(frames_received(&path).unwrap(), [10.5, 10.6, 10.6, 10.8]);
+        std::fs::write(
+            &path,
+            "0 10.5\n1 10.6\nnot a line\n3 1700000000.123456789\n",
+        )
+        .unwrap();
+        let text: Vec<String> = frames_received(&path)
+            .unwrap()
+            .iter()
+            .map(ToString::to_string)
+            .collect();
+        assert_eq!(
+            text,
+            [
+                "10.500000",
+                "10.600000",
+                "10.600000",
+                "1700000000.123456789"
+            ]
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -7,9 +7,13 @@ use crate::CliResult;
 use crate::config::Config;
 use crate::pipeline::Covariances;
 use gfs_core::camera::Camera;
+use gfs_core::stamp::Stamp;
+use gfs_ipc::Profile;
 use gfs_odometry::FramePose;
 use gfs_ros2::bag::{BagTopics, BagWriter, scan};
 use gfs_ros2::camera_info::{camera_from_info, cameras_differ};
+use gfs_ros2::diagnostics::{DiagnosticsWindow, WINDOW_NS};
+use gfs_ros2::msg::{Header, Time};
 use gfs_ros2::odom::{OdometryPublisherState, TrackedPose};
 use gfs_ros2::schema;
 use std::path::{Path, PathBuf};
@@ -86,30 +90,20 @@ fn derived_config(
     camera: &Camera,
     path: &Path,
 ) -> CliResult<Config> {
-    write_config(config_path, dataset, "camera", camera_values(camera), path)
+    write_config(config_path, dataset, "camera", camera_values(camera)?, path)
 }
 
 /// The `[camera]` values of `camera` (its `readout_s` is not among them: the config's
 /// stays).
-pub fn camera_values(camera: &Camera) -> Vec<(&'static str, toml::Value)> {
-    let (p, d) = (&camera.pinhole, &camera.distortion);
-    let mut values: Vec<(&str, toml::Value)> = [
-        ("fx", p.fx),
-        ("fy", p.fy),
-        ("cx", p.cx),
-        ("cy", p.cy),
-        ("k1", d.k1),
-        ("k2", d.k2),
-        ("p1", d.p1),
-        ("p2", d.p2),
-        ("k3", d.k3),
-    ]
-    .into_iter()
-    .map(|(k, v)| (k, toml::Value::Float(v)))
-    .collect();
-    values.push(("width", toml::Value::Integer(p.width as i64)));
-    values.push(("height", toml::Value::Integer(p.height as i64)));
-    values
+///
+/// # Errors
+/// None in practice: a camera's table is always TOML.
+pub fn camera_values(camera: &Camera) -> CliResult<Vec<(String, toml::Value)>> {
+    let table = toml::Table::try_from(camera.config(0.0))?;
+    Ok(table
+        .into_iter()
+        .filter(|(k, _)| k != "readout_s")
+        .collect())
 }
 
 /// Writes the config of `config_path` (or the dataset's built-in one) with `values` set
@@ -122,7 +116,7 @@ pub fn write_config(
     config_path: Option<&Path>,
     dataset: &Path,
     section: &str,
-    values: Vec<(&'static str, toml::Value)>,
+    values: impl IntoIterator<Item = (impl Into<String>, toml::Value)>,
     path: &Path,
 ) -> CliResult<Config> {
     let (origin, text) = Config::source_text(config_path, dataset)?;
@@ -132,7 +126,7 @@ pub fn write_config(
         .or_insert_with(|| toml::Value::Table(toml::Table::new()));
     if let toml::Value::Table(t) = entry {
         for (key, value) in values {
-            t.insert(key.to_owned(), value);
+            t.insert(key.into(), value);
         }
     }
     let text = format!(
@@ -143,9 +137,21 @@ pub fn write_config(
     Ok(Config::load(Some(path), dataset)?)
 }
 
+/// What a recording takes from the run besides the poses.
+pub struct RunDetails<'a> {
+    /// The latencies of the frames, when the run has a profile.
+    pub profile: Option<&'a Profile>,
+    /// Restarts of each stage.
+    pub restarts: &'a [(String, u32)],
+    /// The colour stamps as received, by frame id (a frame beyond them is stamped from
+    /// its seconds, [`Stamp::from_secs`]).
+    pub stamps: &'a [Stamp],
+}
+
 /// Writes `/odom`, `/tf` and the status of every pose into an MCAP file (ROS 2 profile),
 /// stamped with the colour stamps, with the covariance of each tracked pose (a pose
-/// without one, predicted, gets the inflated "unknown" covariance).
+/// without one, predicted, gets the inflated "unknown" covariance); and `/diagnostics`
+/// once a second of the camera's clock.
 ///
 /// # Errors
 /// The file cannot be written.
@@ -154,20 +160,29 @@ pub fn record_mcap(
     config: &Config,
     poses: &[FramePose],
     covariances: &Covariances,
+    details: &RunDetails<'_>,
 ) -> CliResult {
     let ros2 = &config.ros2;
     let mut state = OdometryPublisherState::new(ros2);
     let mut writer = BagWriter::create(path)?;
+    let mut diagnostics = DiagnosticsWindow::new();
+    let mut next_report = None;
     for pose in poses {
+        let stamp = details
+            .stamps
+            .get(pose.id.0 as usize)
+            .copied()
+            .or_else(|| Stamp::from_secs(pose.timestamp))
+            .unwrap_or_default();
         let messages = state.messages(&TrackedPose {
-            stamp: pose.timestamp,
+            stamp,
             world_from_camera: pose.world_from_camera,
             covariance: covariances.get(&pose.id.0).copied(),
             status: pose.status.as_str(),
             // The recorder sees the published (odom) poses only.
             map_from_odom: nalgebra::Isometry3::identity(),
         });
-        let time = (pose.timestamp.max(0.0) * 1e9).round() as u64;
+        let time = stamp.nanos().max(0) as u64;
         if let Some(odometry) = &messages.odometry {
             writer.write(&ros2.odom_topic, &schema::ODOMETRY, time, odometry)?;
         }
@@ -175,6 +190,31 @@ pub fn record_mcap(
             writer.write(&ros2.tf_topic, &schema::TF_MESSAGE, time, tf)?;
         }
         writer.write(&ros2.status_topic, &schema::STRING, time, &messages.status)?;
+        let now = time as i64;
+        let latency_s = details
+            .profile
+            .and_then(|p| p.frame(pose.id.0))
+            .and_then(|f| f.end_to_end_ns)
+            .map(|ns| ns as f64 * 1e-9);
+        diagnostics.frame_received(now);
+        diagnostics.pose_published(now, latency_s, pose.status.as_str());
+        let due = next_report.get_or_insert(now + WINDOW_NS);
+        if now >= *due {
+            while *due <= now {
+                *due += WINDOW_NS;
+            }
+            let header = Header {
+                stamp: Time::from(Stamp::from_nanos(now)),
+                frame_id: String::new(),
+            };
+            let report = diagnostics.report(now, header, &ros2.colour_topic, details.restarts);
+            writer.write(
+                &ros2.diagnostics_topic,
+                &schema::DIAGNOSTIC_ARRAY,
+                time,
+                &report,
+            )?;
+        }
     }
     writer.finish()?;
     Ok(())

@@ -3,6 +3,7 @@
 
 use crate::CliResult;
 use clap::{Args, ValueEnum};
+use gfs_core::camera::DistortionModel;
 use gfs_synth::{NoiseConfig, SceneKind, Sensor, SynthConfig, SynthSequence, TrajectoryKind};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -27,7 +28,8 @@ Examples:\n  gfsvo synth                                   # room, slow, 300 fra
 gfsvo synth --sensor ideal                    # the tuned, independent noise\n  \
 gfsvo synth --scene corridor --traj fast --frames 600 --seed 7\n  \
 gfsvo synth --traj loop --frames 1081          # three laps of the room, back at the start\n  \
-gfsvo synth --scene low-texture --clean --out /tmp/lowtex   # exact depth, clean colour")]
+gfsvo synth --scene low-texture --clean --out /tmp/lowtex   # exact depth, clean colour\n  \
+gfsvo synth --distortion rational_polynomial --out /tmp/azure  # as an Azure Kinect records")]
 pub struct SynthArgs {
     /// Scene: `room` (textured: bricks, posters, shelves, tiles), `low-texture` (plain
     /// walls, a few frames and boxes), `corridor` (14 m long, doors on both sides).
@@ -89,6 +91,11 @@ pub struct SynthArgs {
     /// sensor).
     #[arg(long)]
     clean: bool,
+    /// Record the frames through a lens of this model, with the coefficients of a camera
+    /// that has one (plumb_bob: TUM freiburg1; rational_polynomial: Azure Kinect;
+    /// equidistant: a T265-like fisheye), written into synthetic.toml's `[camera]`.
+    #[arg(long, value_parser = ["none", "plumb_bob", "rational_polynomial", "equidistant"], default_value = "none")]
+    distortion: String,
 }
 
 /// Scene names on the command line.
@@ -165,6 +172,9 @@ impl SynthArgs {
             seed: self.seed,
             noise,
             camera: SynthConfig::scaled_camera(self.width),
+            distortion: DistortionModel::from_name(&self.distortion)
+                .map(gfs_synth::typical_lens)
+                .unwrap_or_default(),
             ..SynthConfig::default()
         })
     }

@@ -160,6 +160,7 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
             let restarted = pool.restart_dead(run)?;
             if !restarted.is_empty() {
                 write_pids(&options.out, &pool.pids());
+                write_restarts(options, pool.restarts());
             }
             Ok(restarted)
         });
@@ -322,5 +323,17 @@ fn write_pids(out: &Path, pids: &[(Stage, u32)]) {
         std::fs::write(&tmp, text).and_then(|()| std::fs::rename(&tmp, out.join("pids.json")))
     {
         tracing::warn!("cannot write pids.json: {e}");
+    }
+}
+
+/// The restarts of every stage into the state folder (`/diagnostics` reports them).
+fn write_restarts(options: &PipelineOptions, policy: &RestartPolicy) {
+    let totals: Vec<(String, u32)> = Stage::ALL
+        .iter()
+        .map(|s| (s.name().to_owned(), policy.total(*s)))
+        .collect();
+    let state = gfs_pipeline::state::StateDir::new(options.settings.state_dir.clone());
+    if let Err(e) = state.write(gfs_pipeline::state::RESTARTS, &totals, &mut Vec::new()) {
+        tracing::warn!("{e}");
     }
 }

@@ -229,7 +229,17 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let published = write_odometry(&args.out, &odometry)?;
     let covariance_track = write_covariances(&args.out, &odometry, &covariances)?;
     if let Some(path) = &args.mcap {
-        super::ros2_io::record_mcap(path, &config, &odometry, &covariances)?;
+        let stage_restarts: Vec<(String, u32)> = restarts
+            .iter()
+            .flatten()
+            .map(|(stage, n)| ((*stage).to_owned(), *n))
+            .collect();
+        let details = super::ros2_io::RunDetails {
+            profile: None,
+            restarts: &stage_restarts,
+            stamps: &[],
+        };
+        super::ros2_io::record_mcap(path, &config, &odometry, &covariances, &details)?;
     }
     let estimated = checks::tracked_trajectory(&poses, &args.out)?;
     let evaluation = match &ground_truth {
