@@ -2,8 +2,8 @@
 //! definitions of the evo tools; a table, a JSON object and a PNG plot.
 
 use crate::CliResult;
-use gfs_dataset::plot::{PlotConfig, write_evaluation_png};
 use gfs_dataset::{EVO_MAX_DIFF_S, Evaluation, Stats, Trajectory, evaluate};
+use gfs_plot::{PlotConfig, write_evaluation_png};
 use serde_json::json;
 use std::path::PathBuf;
 
