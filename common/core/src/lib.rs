@@ -13,6 +13,7 @@
 //! - [`ids`]: typed ids, so that a frame id never indexes a map point.
 //! - [`descriptor`]: 256-bit binary descriptors and their Hamming distance.
 //! - [`rng`]: a deterministic PRNG (SplitMix64) for sampling and fixtures.
+//! - [`scene`]: a map as a viewer draws it (points, segments, plane patches, keyframes).
 //!
 //! Conventions (see DESIGN.md): poses are `T_wc` (`world_from_camera`,
 //! `nalgebra::Isometry3<f64>`), camera optical frame x right, y down, z forward;
@@ -37,6 +38,7 @@ pub mod fields;
 pub mod ids;
 mod image;
 pub mod rng;
+pub mod scene;
 pub mod se3;
 
 pub use image::{DepthImage, GrayImage, Image, ImageError, ImageView, RgbImage};

@@ -14,3 +14,5 @@ mod evaluation;
 pub use canvas::{PlotConfig, PlotError, SERIES_COLORS, series_color};
 pub use chart::{LineChart, Series, render_line_chart, write_line_chart_png};
 pub use evaluation::{render_evaluation, write_evaluation_png};
+mod map;
+pub use map::{MapFigure, render_map, write_map_png};

@@ -6,6 +6,7 @@
 
 pub mod checks;
 mod inline;
+mod map_png;
 
 use crate::CliResult;
 use crate::bench::stats::Summary;
@@ -73,6 +74,10 @@ pub struct RunArgs {
     /// Also write /odom, /tf and the status as a ROS 2 bag file (MCAP, CDR).
     #[arg(long)]
     pub mcap: Option<PathBuf>,
+    /// Write a PNG of the final map: top and perspective views of the points (coloured
+    /// by height), lines, planes and keyframe path (and ground truth when there is one).
+    #[arg(long)]
+    pub map_png: Option<PathBuf>,
 }
 
 /// Per-stage timings of a run, as printed.
@@ -115,6 +120,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
 
     let mut tracking_blocks = Vec::new();
     let mut tracker_map = None;
+    let mut scene = None;
     let (poses, odometry, loops, processed, timings, keyframes, restarts, covariances) = if args
         .mode
         == RunMode::Inline
@@ -123,7 +129,14 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             .as_ref()
             .ok_or("--mode inline plays dataset folders only")?;
         let progress = progress_bar(total as u64, args.json);
-        let outcome = inline::run(&config, config.odometry(), sequence, total, &progress)?;
+        let outcome = inline::run(
+            &config,
+            config.odometry(),
+            sequence,
+            total,
+            &progress,
+            args.map_png.is_some(),
+        )?;
         progress.finish_and_clear();
         if outcome.interrupted {
             write_outputs(&args.out, &outcome.poses)?;
@@ -133,6 +146,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         let timings = Timings::Inline(outcome.timings);
         tracking_blocks = outcome.tracking_blocks;
         tracker_map = Some((outcome.tracker_keyframes, outcome.map_bytes));
+        scene = outcome.scene;
         let processed = outcome.poses.len();
         let covariances = crate::pipeline::Covariances::new();
         (
@@ -202,6 +216,12 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             outcome.final_map.as_ref(),
         );
         let final_trajectory = pipeline::complete_trajectory(&finals, timestamps);
+        if args.map_png.is_some() {
+            scene = outcome
+                .final_map
+                .as_ref()
+                .map(gfs_odometry::map::Map::scene);
+        }
         let timings = Timings::Pipeline(outcome.profile.summary());
         if !outcome.leftovers.is_empty() {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
@@ -236,6 +256,10 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         .iter()
         .zip(&odometry)
         .any(|(a, b)| a.world_from_camera != b.world_from_camera);
+    if let Some(path) = &args.map_png {
+        let scene = scene.ok_or("--map-png: the run left no map (the mapper saved none)")?;
+        map_png::write(path, &scene, evaluation.as_ref())?;
+    }
     let odometry_evaluation = match &ground_truth {
         Some(gt) if corrected => {
             let continuous = checks::tracked_poses(&odometry);
