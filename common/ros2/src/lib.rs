@@ -16,6 +16,8 @@
 //! - [`odom::OdometryPublisherState`]: camera poses and their covariance as `/odom`,
 //!   `/tf` (REP 105 `odom -> base_link` through the camera-in-base extrinsic), status.
 //! - [`bag`] (feature `bag`): ROS 2 bags in MCAP, read as frames and written.
+//! - [`visualisation::Visualiser`]: the map points, lines, planes, keyframes and path
+//!   as PointCloud2 / MarkerArray / Path (`/gfsvo/*`).
 //! - [`config::Ros2Config`]: the `[ros2]` table of a config.
 #![warn(missing_docs)]
 
@@ -29,5 +31,6 @@ pub mod msg;
 pub mod odom;
 pub mod pairing;
 pub mod schema;
+pub mod visualisation;
 
 pub use config::{Ros2Config, WhenLost};
