@@ -129,6 +129,7 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
         quiet: true,
         source_executable: Some("gfsvo-ros2".to_owned()),
         open_ended: true,
+        keep_scenes: args.mcap.is_some(),
     };
     eprintln!(
         "gfsvo ros2: waiting for {} + {} (Ctrl-C to stop)",
@@ -140,7 +141,8 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
     let poses = pipeline::complete_trajectory(&outcome.received, &timestamps);
     write_outputs(&args.out, &poses)?;
     if let Some(path) = &args.mcap {
-        record_mcap(path, &config, &poses, &outcome.covariances)?;
+        let scenes = super::run::keyframe_stamps(outcome.scenes, &timestamps);
+        record_mcap(path, &config, &poses, &outcome.covariances, &scenes)?;
     }
     let mut counts = BTreeMap::<&str, usize>::new();
     for pose in &poses {

@@ -7,11 +7,15 @@ use crate::CliResult;
 use crate::config::Config;
 use crate::pipeline::Covariances;
 use gfs_core::camera::Camera;
+use gfs_core::scene::Scene;
 use gfs_odometry::FramePose;
 use gfs_ros2::bag::{BagTopics, BagWriter, scan};
 use gfs_ros2::camera_info::{camera_from_info, cameras_differ};
 use gfs_ros2::odom::{OdometryPublisherState, TrackedPose};
 use gfs_ros2::schema;
+use gfs_ros2::visualisation::{
+    KEYFRAMES_TOPIC, LANDMARKS_TOPIC, PATH_TOPIC, STRUCTURE_TOPIC, Visualiser, msg,
+};
 use std::path::{Path, PathBuf};
 
 /// The topics of `config` a bag is read for.
@@ -145,7 +149,10 @@ pub fn write_config(
 
 /// Writes `/odom`, `/tf` and the status of every pose into an MCAP file (ROS 2 profile),
 /// stamped with the colour stamps, with the covariance of each tracked pose (a pose
-/// without one, predicted, gets the inflated "unknown" covariance).
+/// without one, predicted, gets the inflated "unknown" covariance); and the
+/// visualisation topics `[ros2.visualisation]` switches on: the tracker's map after each
+/// keyframe (`scenes`, by the keyframe's stamp) as landmarks, structure and keyframes,
+/// and the path of the poses so far at `path_rate_hz` of their stamps and after the last.
 ///
 /// # Errors
 /// The file cannot be written.
@@ -154,11 +161,34 @@ pub fn record_mcap(
     config: &Config,
     poses: &[FramePose],
     covariances: &Covariances,
+    scenes: &[(f64, Scene)],
 ) -> CliResult {
     let ros2 = &config.ros2;
+    let shown = &ros2.visualisation;
+    let visualiser = Visualiser::new(ros2);
     let mut state = OdometryPublisherState::new(ros2);
     let mut writer = BagWriter::create(path)?;
-    for pose in poses {
+    let mut scenes = scenes.iter().peekable();
+    let mut path_so_far = Vec::with_capacity(poses.len());
+    let mut next_path = f64::NEG_INFINITY;
+    let ns = |stamp: f64| (stamp.max(0.0) * 1e9).round() as u64;
+    for (k, pose) in poses.iter().enumerate() {
+        let time = ns(pose.timestamp);
+        while let Some((stamp, scene)) = scenes.next_if(|(stamp, _)| *stamp <= pose.timestamp) {
+            let at = ns(*stamp);
+            if shown.landmarks {
+                let cloud = visualiser.landmarks(scene, *stamp);
+                writer.write(LANDMARKS_TOPIC, &msg::POINT_CLOUD2, at, &cloud)?;
+            }
+            if shown.structure {
+                let markers = visualiser.structure(scene, *stamp);
+                writer.write(STRUCTURE_TOPIC, &msg::MARKER_ARRAY, at, &markers)?;
+            }
+            if shown.keyframes {
+                let keyframes = visualiser.keyframes(scene, *stamp);
+                writer.write(KEYFRAMES_TOPIC, &msg::PATH, at, &keyframes)?;
+            }
+        }
         let messages = state.messages(&TrackedPose {
             stamp: pose.timestamp,
             world_from_camera: pose.world_from_camera,
@@ -167,7 +197,6 @@ pub fn record_mcap(
             // The recorder sees the published (odom) poses only.
             map_from_odom: nalgebra::Isometry3::identity(),
         });
-        let time = (pose.timestamp.max(0.0) * 1e9).round() as u64;
         if let Some(odometry) = &messages.odometry {
             writer.write(&ros2.odom_topic, &schema::ODOMETRY, time, odometry)?;
         }
@@ -175,6 +204,13 @@ pub fn record_mcap(
             writer.write(&ros2.tf_topic, &schema::TF_MESSAGE, time, tf)?;
         }
         writer.write(&ros2.status_topic, &schema::STRING, time, &messages.status)?;
+        path_so_far.push((pose.timestamp, pose.world_from_camera));
+        let last = k + 1 == poses.len();
+        if shown.path && (pose.timestamp >= next_path || last) {
+            let message = visualiser.path(&path_so_far, pose.timestamp);
+            writer.write(PATH_TOPIC, &msg::PATH, time, &message)?;
+            next_path = pose.timestamp + 1.0 / shown.path_rate_hz;
+        }
     }
     writer.finish()?;
     Ok(())

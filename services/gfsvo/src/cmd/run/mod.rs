@@ -12,6 +12,7 @@ use crate::CliResult;
 use crate::bench::stats::Summary;
 use crate::config::Config;
 use crate::pipeline::{self, PipelineOptions};
+use gfs_core::scene::Scene;
 use gfs_dataset::{EVO_MAX_DIFF_S, Evaluation, Sequence, Trajectory, evaluate};
 use gfs_ipc::{Mode, RunId};
 use gfs_odometry::{FramePose, TrackingStatus};
@@ -121,6 +122,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let mut tracking_blocks = Vec::new();
     let mut tracker_map = None;
     let mut scene = None;
+    let mut keyframe_scenes = Vec::new();
     let (poses, odometry, loops, processed, timings, keyframes, restarts, covariances) = if args
         .mode
         == RunMode::Inline
@@ -193,6 +195,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             quiet: args.json,
             source_executable: None,
             open_ended: false,
+            keep_scenes: args.mcap.is_some(),
         };
         let outcome = pipeline::run(&options)?;
         outcome.profile.write_json(&args.out.join("profile.json"))?;
@@ -222,6 +225,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
                 .as_ref()
                 .map(gfs_odometry::map::Map::scene);
         }
+        keyframe_scenes = keyframe_stamps(outcome.scenes, timestamps);
         let timings = Timings::Pipeline(outcome.profile.summary());
         if !outcome.leftovers.is_empty() {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
@@ -245,7 +249,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     write_outputs(&args.out, &poses)?;
     write_odometry(&args.out, &odometry)?;
     if let Some(path) = &args.mcap {
-        super::ros2_io::record_mcap(path, &config, &odometry, &covariances)?;
+        super::ros2_io::record_mcap(path, &config, &odometry, &covariances, &keyframe_scenes)?;
     }
     let estimated = checks::tracked_trajectory(&poses, &args.out)?;
     let evaluation = match &ground_truth {
@@ -349,6 +353,15 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
     }
     Ok(())
+}
+
+/// The scenes of the keyframes by their frames' stamps (a frame id beyond the stamps,
+/// which no run makes, is left out).
+pub fn keyframe_stamps(scenes: pipeline::Scenes, timestamps: &[f64]) -> Vec<(f64, Scene)> {
+    scenes
+        .into_iter()
+        .filter_map(|(frame, scene)| Some((*timestamps.get(frame as usize)?, scene)))
+        .collect()
 }
 
 /// The error of a run stopped by SIGINT / SIGTERM after `done` of `total` frames.
