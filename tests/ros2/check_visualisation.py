@@ -5,8 +5,10 @@ trajectory, line markers, keyframe poses in `map`, and /gfsvo/path at its rate o
 data's clock whose last message holds one pose per frame of odometry.txt.
 
 Arguments: RECORDING.mcap odometry.txt [PATH_RATE_HZ (default 1)]."""
+import json
 import struct
 import sys
+from pathlib import Path
 
 import numpy as np
 from mcap_ros2.reader import read_ros2_messages
@@ -72,3 +74,13 @@ assert abs(len(paths) - expected) <= 1, f"{len(paths)} paths over {duration:.1f}
 print(f"visualisation: {len(clouds)} keyframes with {min(sizes)}..{max(sizes)} landmarks "
       f"(farthest {farthest:.2f} m from the path), up to {lines} lines and {planes} planes, "
       f"{len(paths)} paths at {rate} Hz, the last with {len(paths[-1].poses)} poses")
+
+# The Foxglove layout is JSON whose 3D panel shows these topics; the RViz config names them.
+REPO = Path(__file__).resolve().parent.parent.parent
+TOPICS = ["/gfsvo/landmarks", "/gfsvo/structure", "/gfsvo/keyframes", "/gfsvo/path", "/odom"]
+layout = json.loads((REPO / "deploy" / "foxglove" / "gfsvo.json").read_text())
+shown = layout["configById"]["3D!gfsvo"]["topics"]
+assert all(shown[t]["visible"] for t in TOPICS), "the Foxglove layout shows every topic"
+rviz = (REPO / "deploy" / "rviz" / "gfsvo.rviz").read_text()
+assert all(f"Value: {t}\n" in rviz for t in TOPICS), "the RViz config opens every topic"
+print("layouts: deploy/foxglove/gfsvo.json and deploy/rviz/gfsvo.rviz open " + ", ".join(TOPICS))
