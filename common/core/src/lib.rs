@@ -15,6 +15,7 @@
 //! - [`descriptor`]: 256-bit binary descriptors and their Hamming distance.
 //! - [`rng`]: a deterministic PRNG (SplitMix64) for sampling and fixtures.
 //! - [`stamp::Stamp`]: capture stamps as integer nanoseconds, exact from source to outputs.
+//! - [`scene`]: a map as a viewer draws it (points, segments, plane patches, keyframes).
 //!
 //! Conventions (see DESIGN.md): poses are `T_wc` (`world_from_camera`,
 //! `nalgebra::Isometry3<f64>`), camera optical frame x right, y down, z forward;
@@ -39,6 +40,7 @@ pub mod fields;
 pub mod ids;
 mod image;
 pub mod rng;
+pub mod scene;
 pub mod se3;
 pub mod stamp;
 

@@ -2,7 +2,8 @@
 //!
 //! What it holds, and why it is one crate: everything between files on disk and the
 //! algorithms (reading RGB-D sequences) and between the algorithms and a number in a
-//! paper table (trajectories, ATE / RPE, plots). Nothing here knows about the pipeline.
+//! paper table (trajectories, ATE / RPE). Nothing here knows about the pipeline; the
+//! figures are drawn by `gfs-plot`.
 //!
 //! - [`Sequence`] opens a TUM RGB-D folder (or an ICL-NUIM / 7-Scenes folder in TUM
 //!   layout): `associations.txt` when present, otherwise `rgb.txt` and `depth.txt`
@@ -14,8 +15,6 @@
 //!   [`evaluate`] with the definitions of the `evo` tools: association within 10 ms,
 //!   SE(3) Umeyama alignment, ATE (`evo_ape tum GT EST --align`) and RPE per frame
 //!   (`evo_rpe tum GT EST`) and per second.
-//! - [`plot`]: a PNG of the top view of both trajectories and the ATE over time, drawn
-//!   with a small raster canvas (no plotting framework).
 //!
 //! Model of the evaluation, for matched poses `k` (ground truth `Q_k`, estimate `P_k`):
 //! `ATE_k = |t(Q_k) - t(S P_k)|` with `S = argmin sum_k |t(Q_k) - t(S P_k)|^2` over SE(3);
@@ -44,7 +43,6 @@ mod decode;
 mod depth;
 mod error;
 mod lists;
-pub mod plot;
 
 mod reader;
 mod sequence;

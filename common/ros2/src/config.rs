@@ -52,6 +52,8 @@ pub struct Ros2Config {
     pub when_lost: WhenLost,
     /// Factor on the covariance of a predicted (lost) pose.
     pub lost_covariance_scale: f64,
+    /// `[ros2.visualisation]`: the map, structure and path topics.
+    pub visualisation: crate::visualisation::VisualisationConfig,
 }
 
 /// `camera_in_base` of a camera looking along the base's x axis: optical x right = base
@@ -76,6 +78,7 @@ impl Default for Ros2Config {
             slop_s: 0.02,
             when_lost: WhenLost::Predict,
             lost_covariance_scale: 1e4,
+            visualisation: crate::visualisation::VisualisationConfig::default(),
         }
     }
 }
@@ -110,6 +113,7 @@ impl Ros2Config {
                 self.lost_covariance_scale
             ));
         }
+        self.visualisation.validate()?;
         let q = &self.camera_in_base[3..];
         let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
         if !(self.camera_in_base.iter().all(|v| v.is_finite()) && (norm - 1.0).abs() < 1e-3) {

@@ -18,6 +18,8 @@
 //! - [`diagnostics::DiagnosticsWindow`]: `/diagnostics` over the last second (rates,
 //!   latency, share tracked, restarts), on the wall clock live or the camera's in bags.
 //! - [`bag`] (feature `bag`): ROS 2 bags in MCAP, read as frames and written.
+//! - [`visualisation::Visualiser`]: the map points, lines, planes, keyframes and path
+//!   as PointCloud2 / MarkerArray / Path (`/gfsvo/*`).
 //! - [`config::Ros2Config`]: the `[ros2]` table of a config.
 #![warn(missing_docs)]
 
@@ -32,5 +34,6 @@ pub mod msg;
 pub mod odom;
 pub mod pairing;
 pub mod schema;
+pub mod visualisation;
 
 pub use config::{Ros2Config, WhenLost};

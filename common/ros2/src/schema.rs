@@ -5,18 +5,19 @@
 const SEPARATOR: &str =
     "================================================================================\n";
 
-const TIME: (&str, &str) = ("builtin_interfaces/Time", "int32 sec\nuint32 nanosec\n");
-const HEADER: (&str, &str) = (
+pub(crate) const TIME: (&str, &str) = ("builtin_interfaces/Time", "int32 sec\nuint32 nanosec\n");
+pub(crate) const HEADER: (&str, &str) = (
     "std_msgs/Header",
     "builtin_interfaces/Time stamp\nstring frame_id\n",
 );
-const POINT: (&str, &str) = ("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n");
-const VECTOR3: (&str, &str) = ("geometry_msgs/Vector3", "float64 x\nfloat64 y\nfloat64 z\n");
-const QUATERNION: (&str, &str) = (
+pub(crate) const POINT: (&str, &str) = ("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z\n");
+pub(crate) const VECTOR3: (&str, &str) =
+    ("geometry_msgs/Vector3", "float64 x\nfloat64 y\nfloat64 z\n");
+pub(crate) const QUATERNION: (&str, &str) = (
     "geometry_msgs/Quaternion",
     "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1\n",
 );
-const POSE: (&str, &str) = (
+pub(crate) const POSE: (&str, &str) = (
     "geometry_msgs/Pose",
     "Point position\nQuaternion orientation\n",
 );
@@ -47,8 +48,8 @@ const ROI: (&str, &str) = (
 pub struct MessageSchema {
     /// `pkg/msg/Type`, as `ros2 bag` names schemas.
     pub name: &'static str,
-    main: &'static str,
-    dependencies: &'static [(&'static str, &'static str)],
+    pub(crate) main: &'static str,
+    pub(crate) dependencies: &'static [(&'static str, &'static str)],
 }
 
 impl MessageSchema {

@@ -13,6 +13,7 @@ mod neighbourhood;
 mod plane;
 mod point;
 mod retired;
+mod scene;
 
 /// The keyframes other than `kf` named in `observations` (one list per landmark `kf`
 /// sees), with how many landmarks each shares, at least `min_shared`, strongest first

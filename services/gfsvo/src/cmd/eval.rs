@@ -3,11 +3,11 @@
 //! table, a JSON object and a PNG plot.
 
 use crate::CliResult;
-use gfs_dataset::plot::{PlotConfig, write_evaluation_png};
 use gfs_dataset::{
     CHI2_6DOF_999, Consistency, Covariances, EVO_MAX_DIFF_S, Evaluation, Stats, Trajectory,
     consistency, evaluate,
 };
+use gfs_plot::{PlotConfig, write_evaluation_png};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 

@@ -3,8 +3,8 @@
 
 use crate::CliResult;
 use clap::Args;
-use gfs_dataset::plot::{LineChart, PlotConfig, Series, write_line_chart_png};
 use gfs_ipc::Profile;
+use gfs_plot::{LineChart, PlotConfig, Series, write_line_chart_png};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `gfsvo profile`.
@@ -43,10 +43,7 @@ fn report(args: &ProfileArgs) -> CliResult<(String, PathBuf)> {
 /// One series per stage: its processing time (ms) for each frame it stamped.
 fn processing_chart(profile: &Profile) -> LineChart {
     LineChart {
-        title: format!(
-            "PROCESSING TIME PER STAGE ({})",
-            profile.mode.to_uppercase()
-        ),
+        title: format!("Processing time per stage ({})", profile.mode),
         x_title: "frame".to_string(),
         y_title: "ms".to_string(),
         series: profile

@@ -130,6 +130,7 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
         quiet: true,
         source_executable: Some("gfsvo-ros2".to_owned()),
         open_ended: true,
+        keep_scenes: args.mcap.is_some(),
     };
     eprintln!(
         "gfsvo ros2: waiting for {} + {} (Ctrl-C to stop)",
@@ -147,10 +148,12 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
             .iter()
             .map(|(stage, n)| ((*stage).to_owned(), *n))
             .collect();
+        let scenes = super::run::keyframe_stamps(outcome.scenes, &timestamps);
         let details = RunDetails {
             profile: Some(&outcome.profile),
             restarts: &restarts,
             stamps: &stamps,
+            scenes: &scenes,
         };
         record_mcap(path, &config, &poses, &outcome.covariances, &details)?;
     }

@@ -7,6 +7,7 @@ use crate::CliResult;
 use crate::config::Config;
 use crate::pipeline::Covariances;
 use gfs_core::camera::Camera;
+use gfs_core::scene::Scene;
 use gfs_core::stamp::Stamp;
 use gfs_ipc::Profile;
 use gfs_odometry::FramePose;
@@ -16,6 +17,9 @@ use gfs_ros2::diagnostics::{DiagnosticsWindow, WINDOW_NS};
 use gfs_ros2::msg::{Header, Time};
 use gfs_ros2::odom::{OdometryPublisherState, TrackedPose};
 use gfs_ros2::schema;
+use gfs_ros2::visualisation::{
+    KEYFRAMES_TOPIC, LANDMARKS_TOPIC, PATH_TOPIC, STRUCTURE_TOPIC, Visualiser, msg,
+};
 use std::path::{Path, PathBuf};
 
 /// The topics of `config` a bag is read for.
@@ -146,12 +150,17 @@ pub struct RunDetails<'a> {
     /// The colour stamps as received, by frame id (a frame beyond them is stamped from
     /// its seconds, [`Stamp::from_secs`]).
     pub stamps: &'a [Stamp],
+    /// The tracker's map after each keyframe, by the keyframe's stamp (seconds).
+    pub scenes: &'a [(f64, Scene)],
 }
 
 /// Writes `/odom`, `/tf` and the status of every pose into an MCAP file (ROS 2 profile),
 /// stamped with the colour stamps, with the covariance of each tracked pose (a pose
-/// without one, predicted, gets the inflated "unknown" covariance); and `/diagnostics`
-/// once a second of the camera's clock.
+/// without one, predicted, gets the inflated "unknown" covariance); `/diagnostics`
+/// once a second of the camera's clock; and the visualisation topics
+/// `[ros2.visualisation]` switches on: the tracker's map after each keyframe
+/// (`details.scenes`, by the keyframe's stamp) as landmarks, structure and keyframes,
+/// and the path of the poses so far at `path_rate_hz` of their stamps and after the last.
 ///
 /// # Errors
 /// The file cannot be written.
@@ -163,17 +172,38 @@ pub fn record_mcap(
     details: &RunDetails<'_>,
 ) -> CliResult {
     let ros2 = &config.ros2;
+    let shown = &ros2.visualisation;
+    let visualiser = Visualiser::new(ros2);
     let mut state = OdometryPublisherState::new(ros2);
     let mut writer = BagWriter::create(path)?;
     let mut diagnostics = DiagnosticsWindow::new();
     let mut next_report = None;
-    for pose in poses {
+    let mut scenes = details.scenes.iter().peekable();
+    let mut path_so_far = Vec::with_capacity(poses.len());
+    let mut next_path = f64::NEG_INFINITY;
+    let ns = |stamp: f64| (stamp.max(0.0) * 1e9).round() as u64;
+    for (k, pose) in poses.iter().enumerate() {
         let stamp = details
             .stamps
             .get(pose.id.0 as usize)
             .copied()
             .or_else(|| Stamp::from_secs(pose.timestamp))
             .unwrap_or_default();
+        while let Some((keyframe_s, scene)) = scenes.next_if(|(s, _)| *s <= pose.timestamp) {
+            let at = ns(*keyframe_s);
+            if shown.landmarks {
+                let cloud = visualiser.landmarks(scene, *keyframe_s);
+                writer.write(LANDMARKS_TOPIC, &msg::POINT_CLOUD2, at, &cloud)?;
+            }
+            if shown.structure {
+                let markers = visualiser.structure(scene, *keyframe_s);
+                writer.write(STRUCTURE_TOPIC, &msg::MARKER_ARRAY, at, &markers)?;
+            }
+            if shown.keyframes {
+                let keyframes = visualiser.keyframes(scene, *keyframe_s);
+                writer.write(KEYFRAMES_TOPIC, &msg::PATH, at, &keyframes)?;
+            }
+        }
         let messages = state.messages(&TrackedPose {
             stamp,
             world_from_camera: pose.world_from_camera,
@@ -190,6 +220,13 @@ pub fn record_mcap(
             writer.write(&ros2.tf_topic, &schema::TF_MESSAGE, time, tf)?;
         }
         writer.write(&ros2.status_topic, &schema::STRING, time, &messages.status)?;
+        path_so_far.push((pose.timestamp, pose.world_from_camera));
+        let last = k + 1 == poses.len();
+        if shown.path && (pose.timestamp >= next_path || last) {
+            let message = visualiser.path(&path_so_far, pose.timestamp);
+            writer.write(PATH_TOPIC, &msg::PATH, time, &message)?;
+            next_path = pose.timestamp + 1.0 / shown.path_rate_hz;
+        }
         let now = time as i64;
         let latency_s = details
             .profile

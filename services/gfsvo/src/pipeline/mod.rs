@@ -9,7 +9,9 @@ pub mod signals;
 mod threads;
 mod watchdog;
 
-pub use recorder::{Anchors, Corrections, Covariances, Recorder, complete_trajectory, final_poses};
+pub use recorder::{
+    Anchors, Corrections, Covariances, Recorder, Scenes, complete_trajectory, final_poses,
+};
 
 use crate::CliResult;
 use children::StageProcesses;
@@ -63,6 +65,9 @@ pub struct PipelineOptions {
     /// Frames come until SIGINT / SIGTERM (a live camera): no last frame, no stall
     /// limit, and the interruption is the normal end.
     pub open_ended: bool,
+    /// Keep the tracker's map after each keyframe as a scene (the `--mcap` recording's
+    /// visualisation topics).
+    pub keep_scenes: bool,
 }
 
 /// What a pipeline run produced.
@@ -77,6 +82,8 @@ pub struct PipelineOutcome {
     pub anchors: Anchors,
     /// The mapper's last saved map (`None` without a state folder or a keyframe).
     pub final_map: Option<Map>,
+    /// The tracker's map after each keyframe (empty unless `keep_scenes`).
+    pub scenes: Scenes,
     /// Stage stamps of every frame.
     pub profile: Profile,
     /// Keyframes made.
@@ -113,7 +120,8 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
     };
     if options.threads {
         let node = run.node::<local::Service>("recorder")?;
-        let recorder = Recorder::new(&run, &node, options.settings.mode, label)?;
+        let recorder = Recorder::new(&run, &node, options.settings.mode, label)?
+            .keeping_scenes(options.keep_scenes);
         let mut pool =
             StageThreads::start(options.run_id.clone(), options.settings.clone(), policy)?;
         let result = supervise(&run, recorder, options, |_| pool.restart_dead());
@@ -123,7 +131,8 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
         finish(options, run.finish(), result, totals)
     } else {
         let node = run.node::<ipc::Service>("recorder")?;
-        let recorder = Recorder::new(&run, &node, options.settings.mode, label)?;
+        let recorder = Recorder::new(&run, &node, options.settings.mode, label)?
+            .keeping_scenes(options.keep_scenes);
         let dir = std::env::current_exe()?
             .parent()
             .map(Path::to_path_buf)
@@ -183,6 +192,7 @@ struct Recorded {
     corrections: Corrections,
     anchors: Anchors,
     keyframes: usize,
+    scenes: Scenes,
     interrupted: bool,
 }
 
@@ -226,6 +236,7 @@ fn supervise<S: Service>(
     let keyframes = recorder.keyframes();
     let corrections = recorder.take_corrections();
     let anchors = recorder.take_anchors();
+    let scenes = recorder.take_scenes();
     let (profile, received, covariances) = recorder.into_profile();
     Ok(Recorded {
         profile,
@@ -234,6 +245,7 @@ fn supervise<S: Service>(
         corrections,
         anchors,
         keyframes,
+        scenes,
         interrupted,
     })
 }
@@ -259,6 +271,7 @@ fn finish(
         corrections: recorded.corrections,
         anchors: recorded.anchors,
         final_map,
+        scenes: recorded.scenes,
         profile: recorded.profile,
         keyframes: recorded.keyframes,
         restarts: totals.into_iter().collect(),

@@ -2,9 +2,14 @@
 //! stamps its header carried, and the mapper's stamps from the `local-map` topic.
 
 use gfs_core::ids::FrameId;
+use gfs_core::scene::Scene;
 use gfs_ipc::profile::Profile;
-use gfs_ipc::{IpcError, IpcRun, Mode, Service, Stage, TopicSubscriber, topics};
+use gfs_ipc::{
+    IpcError, IpcRun, MAX_VARIABLE_MESSAGE_BYTES, Mode, Service, Stage, TopicSubscriber,
+    decode_message, topics,
+};
 use gfs_odometry::map::Map;
+use gfs_odometry::session::MapUpdate;
 use gfs_odometry::{FrameAnchor, FramePose, TrackingStatus};
 use gfs_pipeline::wire::WirePose;
 use iceoryx2::node::Node;
@@ -25,7 +30,14 @@ pub struct Recorder<S: Service> {
     anchors: Anchors,
     keyframes: usize,
     profile: Profile,
+    /// The tracker's map as a viewer draws it, after each keyframe, by the keyframe's
+    /// frame id (`None`: not kept).
+    scenes: Option<Scenes>,
 }
+
+/// The tracker's map after each keyframe as a viewer draws it, by the keyframe's frame
+/// id, in arrival order.
+pub type Scenes = Vec<(u64, Scene)>;
 
 /// Each frame's reference keyframe and its map pose when tracked, by frame id (frames
 /// before the first keyframe have none).
@@ -55,7 +67,15 @@ impl<S: Service> Recorder<S> {
             anchors: BTreeMap::new(),
             keyframes: 0,
             profile: Profile::new(label),
+            scenes: None,
         })
+    }
+
+    /// Also keeps the tracker's map after each keyframe as a [`Scene`] (decoded here, in
+    /// the supervisor, off the stages' path).
+    pub fn keeping_scenes(mut self, keep: bool) -> Self {
+        self.scenes = keep.then(Vec::new);
+        self
     }
 
     /// Takes in what arrived; returns the number of new poses.
@@ -102,6 +122,22 @@ impl<S: Service> Recorder<S> {
             self.profile
                 .record_stage(sample.user_header(), Stage::Mapper);
             self.profile.record_stage(sample.user_header(), Stage::Loop);
+            if let Some(scenes) = &mut self.scenes {
+                let frame = sample.user_header().frame_id;
+                match decode_message::<MapUpdate>(sample.payload(), MAX_VARIABLE_MESSAGE_BYTES) {
+                    Ok(update) if update.keyframe.is_some() => {
+                        let mut scene = update.map.scene();
+                        if let [Some(a), Some(b), Some(c)] =
+                            [0, 1, 2].map(|k| update.manhattan.axis(k))
+                        {
+                            scene.axes = Some([a, b, c]);
+                        }
+                        scenes.push((frame, scene));
+                    }
+                    Ok(_) => {}
+                    Err(e) => tracing::warn!(frame, "recorder: cannot decode a local map: {e}"),
+                }
+            }
         }
         Ok(new)
     }
@@ -147,6 +183,11 @@ impl<S: Service> Recorder<S> {
     /// The loop corrections received (taken out).
     pub fn take_corrections(&mut self) -> Corrections {
         std::mem::take(&mut self.corrections)
+    }
+
+    /// The scenes kept (taken out; empty unless [`Self::keeping_scenes`]).
+    pub fn take_scenes(&mut self) -> Scenes {
+        self.scenes.take().unwrap_or_default()
     }
 
     /// The frames' anchors received (taken out).

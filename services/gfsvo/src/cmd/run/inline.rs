@@ -35,6 +35,8 @@ pub struct InlineOutcome {
     /// The tracker's map and the whole map at the end as messages (`None` when
     /// larger than a message may be).
     pub map_bytes: Option<MapBytes>,
+    /// The whole map at the end as a viewer draws it, when asked for.
+    pub scene: Option<gfs_core::scene::Scene>,
     /// True when SIGINT / SIGTERM stopped the run: `poses` holds the frames done.
     pub interrupted: bool,
     /// The covariance of each tracked frame's published pose, by frame id.
@@ -44,7 +46,7 @@ pub struct InlineOutcome {
 /// Frames per block of [`InlineOutcome::tracking_blocks`].
 pub const BLOCK_FRAMES: usize = 500;
 
-/// Runs the first `total` frames of `sequence`.
+/// Runs the first `total` frames of `sequence` (and draws the final map `with_scene`).
 ///
 /// # Errors
 /// When a stage's config is invalid or a frame's features do not line up.
@@ -54,6 +56,7 @@ pub fn run(
     sequence: &Sequence,
     total: usize,
     progress: &ProgressBar,
+    with_scene: bool,
 ) -> CliResult<InlineOutcome> {
     let pinhole = config.camera()?.pinhole;
     let mut frontend = Frontend::new(
@@ -142,6 +145,7 @@ pub fn run(
         keyframes: odometry.map().keyframe_count(),
         tracker_keyframes: odometry.tracking().map().keyframe_count(),
         map_bytes: map_bytes(&odometry),
+        scene: with_scene.then(|| odometry.map().scene()),
         interrupted,
         covariances,
     })

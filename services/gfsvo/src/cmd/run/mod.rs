@@ -7,11 +7,13 @@
 
 pub mod checks;
 mod inline;
+mod map_png;
 
 use crate::CliResult;
 use crate::bench::stats::Summary;
 use crate::config::Config;
 use crate::pipeline::{self, PipelineOptions};
+use gfs_core::scene::Scene;
 use gfs_dataset::{Covariances, EVO_MAX_DIFF_S, Evaluation, Sequence, Trajectory, evaluate};
 use gfs_ipc::{Mode, RunId};
 use gfs_odometry::{FramePose, TrackingStatus};
@@ -76,6 +78,10 @@ pub struct RunArgs {
     /// Also write /odom, /tf and the status as a ROS 2 bag file (MCAP, CDR).
     #[arg(long)]
     pub mcap: Option<PathBuf>,
+    /// Write a PNG of the final map: top and perspective views of the points (coloured
+    /// by height), lines, planes and keyframe path (and ground truth when there is one).
+    #[arg(long)]
+    pub map_png: Option<PathBuf>,
 }
 
 /// Per-stage timings of a run, as printed.
@@ -118,6 +124,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
 
     let mut tracking_blocks = Vec::new();
     let mut tracker_map = None;
+    let mut scene = None;
+    let mut keyframe_scenes = Vec::new();
     let (poses, odometry, loops, processed, timings, keyframes, restarts, covariances) = if args
         .mode
         == RunMode::Inline
@@ -126,7 +134,14 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             .as_ref()
             .ok_or("--mode inline plays dataset folders only")?;
         let progress = progress_bar(total as u64, args.json);
-        let outcome = inline::run(&config, config.odometry(), sequence, total, &progress)?;
+        let outcome = inline::run(
+            &config,
+            config.odometry(),
+            sequence,
+            total,
+            &progress,
+            args.map_png.is_some(),
+        )?;
         progress.finish_and_clear();
         if outcome.interrupted {
             write_outputs(&args.out, &outcome.poses)?;
@@ -136,6 +151,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         let timings = Timings::Inline(outcome.timings);
         tracking_blocks = outcome.tracking_blocks;
         tracker_map = Some((outcome.tracker_keyframes, outcome.map_bytes));
+        scene = outcome.scene;
         let processed = outcome.poses.len();
         let covariances = outcome.covariances;
         (
@@ -182,6 +198,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             quiet: args.json,
             source_executable: None,
             open_ended: false,
+            keep_scenes: args.mcap.is_some(),
         };
         let outcome = pipeline::run(&options)?;
         outcome.profile.write_json(&args.out.join("profile.json"))?;
@@ -205,6 +222,13 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             outcome.final_map.as_ref(),
         );
         let final_trajectory = pipeline::complete_trajectory(&finals, timestamps);
+        if args.map_png.is_some() {
+            scene = outcome
+                .final_map
+                .as_ref()
+                .map(gfs_odometry::map::Map::scene);
+        }
+        keyframe_scenes = keyframe_stamps(outcome.scenes, timestamps);
         let timings = Timings::Pipeline(outcome.profile.summary());
         if !outcome.leftovers.is_empty() {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
@@ -238,6 +262,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             profile: None,
             restarts: &stage_restarts,
             stamps: &[],
+            scenes: &keyframe_scenes,
         };
         super::ros2_io::record_mcap(path, &config, &odometry, &covariances, &details)?;
     }
@@ -250,6 +275,10 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         .iter()
         .zip(&odometry)
         .any(|(a, b)| a.world_from_camera != b.world_from_camera);
+    if let Some(path) = &args.map_png {
+        let scene = scene.ok_or("--map-png: the run left no map (the mapper saved none)")?;
+        map_png::write(path, &scene, evaluation.as_ref())?;
+    }
     let odometry_evaluation = match &ground_truth {
         Some(gt) if corrected => {
             let continuous = checks::tracked_poses(&odometry);
@@ -348,6 +377,15 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
     }
     Ok(())
+}
+
+/// The scenes of the keyframes by their frames' stamps (a frame id beyond the stamps,
+/// which no run makes, is left out).
+pub fn keyframe_stamps(scenes: pipeline::Scenes, timestamps: &[f64]) -> Vec<(f64, Scene)> {
+    scenes
+        .into_iter()
+        .filter_map(|(frame, scene)| Some((*timestamps.get(frame as usize)?, scene)))
+        .collect()
 }
 
 /// The error of a run stopped by SIGINT / SIGTERM after `done` of `total` frames.
