@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The ROS 2 interop test (tests/ros2/interop.py says what it covers): sets up its own
+# The ROS 2 interop tests (tests/ros2/bags.py and interop.py say what they cover): sets up its own
 # Python venv from PyPI (cached in target/ros2-venv), builds the executables, runs it.
 # Skips with a reason when ../shared/data is absent. Loopback only.
 set -euo pipefail
@@ -18,4 +18,5 @@ if [ "$(cat $VENV/pins 2>/dev/null)" != "$PINS" ]; then
   echo "$PINS" > "$VENV/pins"
 fi
 cargo build --release --workspace --bins --quiet
+"$VENV/bin/python" tests/ros2/bags.py
 "$VENV/bin/python" tests/ros2/interop.py

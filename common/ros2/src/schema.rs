@@ -113,3 +113,10 @@ pub const CAMERA_INFO: MessageSchema = MessageSchema {
            uint32 binning_y\nRegionOfInterest roi\n",
     dependencies: &[HEADER, TIME, ROI],
 };
+
+/// `sensor_msgs/msg/CompressedImage`.
+pub const COMPRESSED_IMAGE: MessageSchema = MessageSchema {
+    name: "sensor_msgs/msg/CompressedImage",
+    main: "std_msgs/Header header\nstring format\nuint8[] data\n",
+    dependencies: &[HEADER, TIME],
+};

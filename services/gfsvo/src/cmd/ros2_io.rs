@@ -8,7 +8,7 @@ use crate::config::Config;
 use crate::pipeline::Covariances;
 use gfs_core::camera::Camera;
 use gfs_odometry::FramePose;
-use gfs_ros2::bag::{BagTopics, BagWriter, scan};
+use gfs_ros2::bag::{BagTopics, BagWriter, Compression, scan};
 use gfs_ros2::camera_info::{camera_from_info, cameras_differ};
 use gfs_ros2::odom::{OdometryPublisherState, TrackedPose};
 use gfs_ros2::schema;
@@ -20,6 +20,7 @@ pub fn bag_topics(config: &Config) -> BagTopics {
         colour: config.ros2.colour_topic.clone(),
         depth: config.ros2.depth_topic.clone(),
         camera_info: config.ros2.camera_info_topic.clone(),
+        transport: config.ros2.transport,
     }
 }
 
@@ -154,10 +155,11 @@ pub fn record_mcap(
     config: &Config,
     poses: &[FramePose],
     covariances: &Covariances,
+    compression: Compression,
 ) -> CliResult {
     let ros2 = &config.ros2;
     let mut state = OdometryPublisherState::new(ros2);
-    let mut writer = BagWriter::create(path)?;
+    let mut writer = BagWriter::create(path, compression)?;
     for pose in poses {
         let messages = state.messages(&TrackedPose {
             stamp: pose.timestamp,

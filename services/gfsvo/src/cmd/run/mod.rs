@@ -15,6 +15,7 @@ use gfs_dataset::{EVO_MAX_DIFF_S, Evaluation, Sequence, Trajectory, evaluate};
 use gfs_ipc::{Mode, RunId};
 use gfs_odometry::{FramePose, TrackingStatus};
 use gfs_pipeline::stages::StageSettings;
+use gfs_ros2::bag::Compression;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -73,6 +74,10 @@ pub struct RunArgs {
     /// Also write /odom, /tf and the status as a ROS 2 bag file (MCAP, CDR).
     #[arg(long)]
     pub mcap: Option<PathBuf>,
+    /// Chunk compression of the --mcap recording: none, lz4 or zstd (as `ros2 bag
+    /// record` writes).
+    #[arg(long, default_value = "zstd")]
+    pub mcap_compression: Compression,
 }
 
 /// Per-stage timings of a run, as printed.
@@ -225,7 +230,13 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     write_outputs(&args.out, &poses)?;
     write_odometry(&args.out, &odometry)?;
     if let Some(path) = &args.mcap {
-        super::ros2_io::record_mcap(path, &config, &odometry, &covariances)?;
+        super::ros2_io::record_mcap(
+            path,
+            &config,
+            &odometry,
+            &covariances,
+            args.mcap_compression,
+        )?;
     }
     let estimated = checks::tracked_trajectory(&poses, &args.out)?;
     let evaluation = match &ground_truth {
