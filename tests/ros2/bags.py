@@ -6,11 +6,13 @@ implementations not of this project and played with `gfsvo run BAG --mcap`:
    byte-identical to the folder's.
 2. image_transport's compressed colour (png) and compressedDepth (png, 16UC1):
    byte-identical to the same frames as raw rgb8 + 16UC1 (PNG is lossless; 16UC1 because
-   compressedDepth carries millimetres); jpeg colour (quality 95): ATE within 10 % of it.
+   compressedDepth carries millimetres); jpeg colour (quality 95): ATE within 25 % of it
+   (one run's ATE varies chaotically with JPEG's small changes; see below).
 3. Every `--mcap` recording (zstd chunks, the default) read back by PyPI
    mcap-ros2-support: one /odom per pose, equal to odometry.txt.
 """
 import json
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -23,8 +25,14 @@ GFSVO = str(REPO / "target" / "release" / "gfsvo")
 PY = sys.executable
 FRAMES = 80
 
-sys.path.insert(0, str(HERE))
-from interop import sh  # noqa: E402
+
+
+def sh(*args):
+    print("+", " ".join(map(str, args)), flush=True)
+    done = subprocess.run(list(map(str, args)), text=True, capture_output=True)
+    if done.returncode != 0:
+        raise SystemExit(f"exit {done.returncode}:\n{done.stdout[-2000:]}{done.stderr[-3000:]}")
+    return done.stdout
 
 
 def ate(trajectory):
@@ -34,7 +42,7 @@ def ate(trajectory):
 
 def play(kind):
     """Writes the bag of `kind`, plays it with --mcap, checks the recording; its run folder."""
-    bag = WORK / (f"{kind}.mcap" if kind == "lz4" else f"{kind}_bag")
+    bag = WORK / (f"fr1_{kind}.mcap" if kind == "lz4" else f"fr1_{kind}_bag")
     sh("rm", "-rf", bag)
     sh(PY, HERE / "write_bag_variant.py", DATA, bag, kind, FRAMES)
     out = WORK / kind
@@ -66,8 +74,13 @@ def main():
     ates = {name: ate(runs[name] / "trajectory.txt") for name in ["mm", "png", "jpeg"]}
     ates["folder"] = ate(folder / "trajectory.txt")
     print("ATE RMSE over", FRAMES, "frames:", ", ".join(f"{k} {v:.4f} m" for k, v in ates.items()))
-    print(f"jpeg / raw 16UC1: {ates['jpeg'] / ates['mm']:.3f}")
-    assert ates["jpeg"] <= 1.10 * ates["mm"], "jpeg colour within 10 % of the raw images' ATE"
+    print(f"jpeg / raw 16UC1: {ates['jpeg'] / ates['mm']:.3f}, jpeg / folder: "
+          f"{ates['jpeg'] / ates['folder']:.3f}")
+    # JPEG's loss moves every corner a little, and one run's ATE follows such changes
+    # chaotically: on all 300 frames, jpeg / raw 16UC1 was 1.02, 1.15, 1.07 at quality
+    # 90, 95, 98 (not monotonic). A transport fault (channels swapped, colour and depth of
+    # different frames, a wrong scale) costs far more than the bound.
+    assert ates["jpeg"] <= 1.25 * ates["mm"], "jpeg colour within 25 % of the raw images' ATE"
     print(f"ros2 bags: all checks passed in {time.time() - t0:.0f} s")
 
 

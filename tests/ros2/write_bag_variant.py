@@ -14,6 +14,7 @@ them, with implementations not of this project:
 
 Usage: write_bag_variant.py FOLDER OUT KIND FRAMES"""
 import io
+import os
 import struct
 import sys
 from itertools import islice
@@ -61,7 +62,7 @@ def messages():
         yield INFO, "CameraInfo", ns_c, info
         mm = np.round(raw / tum.TUM_DEPTH_SCALE * 1000.0).astype("<u2")
         if kind in ("png", "jpeg"):
-            data = encoded(rgb, "PNG") if kind == "png" else encoded(rgb, "JPEG", quality=95)
+            data = encoded(rgb, "PNG") if kind == "png" else encoded(rgb, "JPEG", quality=int(os.environ.get("JPEG_QUALITY", "95")))
             yield COLOUR + "/compressed", "CompressedImage", ns_c, T["CompressedImage"](
                 header=hc, format=f"rgb8; {kind} compressed bgr8", data=data)
             config = np.frombuffer(struct.pack("<iff", 0, 0.0, 0.0), dtype=np.uint8)
@@ -82,9 +83,10 @@ def messages():
 
 
 def write_rosbags():
-    with Writer(out, version=9, storage_plugin=StoragePlugin.MCAP) as bag:
-        if kind != "mm":
-            bag.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+    bag = Writer(out, version=9, storage_plugin=StoragePlugin.MCAP)
+    if kind != "mm":
+        bag.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+    with bag:
         connections = {}
         for topic, name, ns, message in messages():
             msgtype = T[name].__msgtype__

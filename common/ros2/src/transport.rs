@@ -165,7 +165,8 @@ impl TransportDecoder {
         } else {
             &mut out.data
         };
-        let (w, _) = decode_png_gray16(png, target).map_err(&fail)?;
+        let (w, h) = decode_png_gray16(png, target).map_err(&fail)?;
+        (out.width, out.height) = (w, h);
         out.is_bigendian = u8::from(cfg!(target_endian = "big"));
         if !metres {
             out.encoding = "16UC1".to_owned();

@@ -96,7 +96,15 @@ fn compressed_depth_16uc1_is_the_millimetres_and_32fc1_the_inverse_depth() {
     let mut decoder = TransportDecoder::new();
     let message = compressed("16UC1; compressedDepth png", data);
     let image = decoder.depth(&message, "/d/compressedDepth").unwrap();
-    assert_eq!((image.encoding.as_str(), image.step), ("16UC1", 10));
+    assert_eq!(
+        (
+            image.encoding.as_str(),
+            image.width,
+            image.height,
+            image.step
+        ),
+        ("16UC1", 5, 1, 10)
+    );
     let back: Vec<u16> = image
         .data
         .chunks_exact(2)
@@ -116,7 +124,15 @@ fn compressed_depth_16uc1_is_the_millimetres_and_32fc1_the_inverse_depth() {
     data.extend(depth_png(&quantised));
     let message = compressed("32FC1; compressedDepth png", data);
     let image = decoder.depth(&message, "/d/compressedDepth").unwrap();
-    assert_eq!((image.encoding.as_str(), image.step), ("32FC1", 20));
+    assert_eq!(
+        (
+            image.encoding.as_str(),
+            image.width,
+            image.height,
+            image.step
+        ),
+        ("32FC1", 5, 1, 20)
+    );
     let back: Vec<f32> = image
         .data
         .chunks_exact(4)

@@ -123,7 +123,10 @@ fn frames(path: &Path, transport: Transport) -> Vec<(Vec<u8>, Vec<u8>)> {
     while let Some(frame) = reader.next_frame().unwrap() {
         let colour = decoders.0.colour(&frame.colour, &c).unwrap().data.clone();
         let depth = decoders.1.depth(&frame.depth, &d).unwrap();
-        assert_eq!(depth.encoding, "16UC1");
+        assert_eq!(
+            (depth.encoding.as_str(), depth.width, depth.height),
+            ("16UC1", W, H)
+        );
         let mm: Vec<u8> = depth
             .data
             .chunks_exact(2)
