@@ -183,10 +183,10 @@ pub fn is_bag(path: &Path) -> bool {
 }
 
 /// What one message of the bag is to the reader.
-enum Read {
+enum Decoded {
     Colour(TransportImage),
     Depth(TransportImage),
-    Info(CameraInfo),
+    Info(Box<CameraInfo>),
     Skipped,
 }
 
@@ -314,34 +314,34 @@ impl BagReader {
                 continue;
             };
             let (topics, seen) = (&self.topics, &mut self.seen);
-            let read = records.next(|message| {
+            let decoded = records.next(|message| {
                 if !seen.contains(&message.channel.topic) {
                     seen.insert(message.channel.topic.clone());
                 }
-                read(&message, topics, file)
+                decode(&message, topics, file)
             })?;
-            let read = match read {
+            let decoded = match decoded {
                 None => {
                     self.records = None;
                     continue;
                 }
-                Some(read) => read?,
+                Some(decoded) => decoded?,
             };
             let stamp = |image: &TransportImage| image.header().stamp.nanos();
-            match read {
-                Read::Colour(image) => {
+            match decoded {
+                Decoded::Colour(image) => {
                     self.counts[0] += 1;
                     self.pairer.push_colour(stamp(&image), image);
                 }
-                Read::Depth(image) => {
+                Decoded::Depth(image) => {
                     self.counts[1] += 1;
                     self.pairer.push_depth(stamp(&image), image);
                 }
-                Read::Info(info) => {
+                Decoded::Info(info) => {
                     self.counts[2] += 1;
-                    self.camera_info.get_or_insert(info);
+                    self.camera_info.get_or_insert(*info);
                 }
-                Read::Skipped => continue,
+                Decoded::Skipped => continue,
             }
             return Ok(true);
         }
@@ -350,7 +350,11 @@ impl BagReader {
 
 /// Decodes a message of the topics read (by its schema); other topics and undecodable
 /// images (with a warning naming topic and log time) are skipped.
-fn read(message: &RecordMessage<'_>, topics: &BagTopics, file: &Path) -> Result<Read, BagError> {
+fn decode(
+    message: &RecordMessage<'_>,
+    topics: &BagTopics,
+    file: &Path,
+) -> Result<Decoded, BagError> {
     let topic = message.channel.topic.as_str();
     let schema = message.channel.schema.as_str();
     let payload = |source| BagError::Payload {
@@ -373,11 +377,11 @@ fn read(message: &RecordMessage<'_>, topics: &BagTopics, file: &Path) -> Result<
             return Err(wrong("sensor_msgs/msg/CameraInfo"));
         }
         let info = cdr::decode(message.data, "sensor_msgs/CameraInfo").map_err(payload)?;
-        return Ok(Read::Info(info));
+        return Ok(Decoded::Info(Box::new(info)));
     }
     let colour = topic == topics.colour;
     if !colour && topic != topics.depth {
-        return Ok(Read::Skipped);
+        return Ok(Decoded::Skipped);
     }
     let image = match schema {
         "" | "sensor_msgs/msg/Image" | "sensor_msgs/Image" => {
@@ -394,15 +398,15 @@ fn read(message: &RecordMessage<'_>, topics: &BagTopics, file: &Path) -> Result<
         }
     };
     match image {
-        Ok(image) if colour => Ok(Read::Colour(image)),
-        Ok(image) => Ok(Read::Depth(image)),
+        Ok(image) if colour => Ok(Decoded::Colour(image)),
+        Ok(image) => Ok(Decoded::Depth(image)),
         Err(e) => {
             tracing::warn!(
                 "{}: {topic} logged at {:.9} s: {e}; message skipped",
                 file.display(),
                 message.log_time as f64 * 1e-9
             );
-            Ok(Read::Skipped)
+            Ok(Decoded::Skipped)
         }
     }
 }

@@ -99,7 +99,7 @@ impl TransportDecoder {
             )));
         }
         .map_err(&fail)?;
-        out.encoding = match colour {
+        let encoding = match colour {
             ColorType::L8 => "mono8",
             ColorType::Rgb8 => "rgb8",
             ColorType::Rgba8 => "rgba8",
@@ -109,8 +109,8 @@ impl TransportDecoder {
                     message.format
                 )));
             }
-        }
-        .to_owned();
+        };
+        set_encoding(out, encoding);
         Ok(&self.decoded)
     }
 
@@ -169,12 +169,12 @@ impl TransportDecoder {
         (out.width, out.height) = (w, h);
         out.is_bigendian = u8::from(cfg!(target_endian = "big"));
         if !metres {
-            out.encoding = "16UC1".to_owned();
+            set_encoding(out, "16UC1");
             out.step = 2 * w;
             return Ok(&self.decoded);
         }
         let (a, b) = header.inverse_depth_params().map_err(&fail)?;
-        out.encoding = "32FC1".to_owned();
+        set_encoding(out, "32FC1");
         out.step = 4 * w;
         out.data.clear();
         for v in self.inverse_depth.chunks_exact(2) {
@@ -233,6 +233,12 @@ impl DepthHeader {
             ))
         }
     }
+}
+
+/// Sets the encoding in place (its buffer reused frame to frame).
+fn set_encoding(image: &mut Image, encoding: &str) {
+    image.encoding.clear();
+    image.encoding.push_str(encoding);
 }
 
 fn error(message: &CompressedImage, topic: &str, reason: String) -> ImageError {
