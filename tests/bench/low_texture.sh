@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Low-texture matrix (issue 17): renders synthetic low-texture rooms (`gfsvo synth
-# --scene low-texture --frames 120`, trajectories slow / fast / rotation, seeds 1-8 by
-# default) and runs `gfsvo run --mode inline` on each with one ablation column's
-# switches; prints each sequence's ATE RMSE and frames not `tracked`, then the mean and
-# how many meet the goal (ATE <= 4 mm, every frame tracked). "lost": no ATE (the map
-# never started).
+# Low-texture matrix: the rooms where points run out and the depth alignment, the
+# photometric term and the planes must hold the pose. Renders synthetic low-texture
+# rooms (`gfsvo synth --scene low-texture --frames 120`, trajectories slow / fast /
+# rotation, seeds 1-8 by default) and runs `gfsvo run --mode inline` on each with one
+# ablation column's switches; prints each sequence's ATE RMSE and frames not `tracked`,
+# then the mean and how many meet the goal (ATE <= 4 mm, every frame tracked). "lost":
+# no ATE (the map never started).
 #
 #   cargo build --release -p gfsvo
 #   tests/bench/low_texture.sh [points|default|planes|depth|all] ["SEED ..."]

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Open3D's RGB-D odometry on a TUM-layout dataset, then its ATE with `gfsvo eval`: the
-# peer of the README's low-texture ablation. Sets up its own venv from PyPI in
+# peer of the low-texture ablation (docs/results.md). Sets up its own venv from PyPI in
 # target/open3d-venv (about 500 MB); not run by CI.
 # usage: bash tests/peers/open3d.sh DATASET CONFIG.toml OUT.txt
 set -euo pipefail

@@ -1,6 +1,6 @@
 """Open3D's RGB-D odometry (hybrid photometric + geometric term, frame to frame,
-default options), chained over a TUM-layout dataset: the peer of the README's
-low-texture ablation. Not part of the product; run through open3d.sh.
+default options), chained over a TUM-layout dataset: the peer of the
+low-texture ablation (docs/results.md). Not part of the product; run through open3d.sh.
 
 usage: open3d_odometry.py DATASET CONFIG.toml OUT.txt
 CONFIG is a gfsvo camera config ([camera] fx fy cx cy width height, [depth] scale

@@ -174,7 +174,7 @@ fn synthetic_sensor_with_depth_and_planes() -> OdometryConfig {
     config
 }
 
-/// Every frame `tracked` and the ATE within 4 mm: the low-texture goal of issue 17.
+/// Every frame `tracked` and the ATE within 4 mm: the goal in rooms with few points.
 fn assert_every_frame_tracked_within_4_mm(r: &RunResult) {
     assert_eq!(
         r.predicted + r.relocalised + r.degraded,

@@ -30,66 +30,48 @@
 //! tracking, lost; a long outage starts a new local map at the predicted pose, in the
 //! same world frame) that a restarted tracker resumes from its checkpoint. [`Frontend`]
 //! extracts the features of a frame in-process.
+//!
+//! **Layout**, by the paper's parts: `frontend` (the features of a frame),
+//! [`tracking`] (every frame against the local map), `depth` (depth and intensity as
+//! tracking terms where points are few), `mapping` (keyframes and the local BA),
+//! [`map`], [`loop_closing`], and [`session`] (the two halves, their messages and the
+//! in-process entry point); `config` holds the tables of all of them.
 #![warn(missing_docs)]
 
 mod config;
-mod depth_alignment;
-mod depth_grid;
-mod final_trajectory;
-mod frame;
+mod depth;
 mod frontend;
-mod keyframe_policy;
-mod local_ba;
 pub mod loop_closing;
-mod manhattan;
 pub mod map;
-mod map_relocalisation;
-mod mapper;
-pub mod matching;
-mod messages_check;
-mod motion;
-mod motion_prior;
-mod observation;
-mod odometry;
-mod photometric_alignment;
-mod plane_association;
-mod plane_mapping;
-mod pose_solver;
-mod ransac;
-mod reference_intensity;
-mod relocalise;
-mod rolling_shutter;
+mod mapping;
 pub mod session;
-mod sightings;
-mod status;
 #[cfg(test)]
 mod testing;
-mod tracker;
-mod validate;
+pub mod tracking;
 
 pub use config::{
     KeyframeConfig, LoopClosingConfig, MappingConfig, OdometryConfig, TrackingConfig,
 };
-pub use depth_alignment::{
+pub use depth::alignment::{
     DepthAlignmentConfig, DepthAssociator, kinect_depth_sigma, self_information,
 };
-pub use depth_grid::DepthGrid;
-pub use final_trajectory::{FinalTrajectory, FrameAnchor};
-pub use frame::{FeatureError, FrameFeatures, FrameSurfaces};
+pub use depth::grid::DepthGrid;
+pub use frontend::features::{FeatureError, FrameFeatures, FrameSurfaces};
 pub use frontend::{
     DEPTH_GRID_STEP, Frontend, FrontendError, FrontendTimings, StructureExtractor, SurfaceRequest,
 };
-pub use keyframe_policy::{KeyframeContext, needs_keyframe};
-pub use manhattan::WorldManhattan;
-pub use map_relocalisation::{MapRelocalisation, MapRelocaliser};
-pub use mapper::Mapper;
-pub use messages_check::MessageError;
-pub use motion::MotionModel;
-pub use odometry::{Odometry, OdometryTimings};
-pub use plane_association::{PlaneAssociator, PlaneTrackingConfig};
-pub use pose_solver::Inliers;
-pub use relocalise::{Relocalisation, relocalise};
+pub use map::manhattan::WorldManhattan;
+pub use mapping::keyframe_policy::{KeyframeContext, needs_keyframe};
+pub use mapping::mapper::Mapper;
 pub use session::FramePose;
-pub use sightings::{SightingCount, Sightings};
-pub use status::TrackingStatus;
-pub use tracker::{Strategy, TrackedFrame, Tracker};
+pub use session::final_trajectory::{FinalTrajectory, FrameAnchor};
+pub use session::messages_check::MessageError;
+pub use session::odometry::{Odometry, OdometryTimings};
+pub use tracking::motion::MotionModel;
+pub use tracking::plane_association::{PlaneAssociator, PlaneTrackingConfig};
+pub use tracking::pose_solver::Inliers;
+pub use tracking::relocalisation::against_map::{MapRelocalisation, MapRelocaliser};
+pub use tracking::relocalisation::around_reference::{Relocalisation, relocalise};
+pub use tracking::sightings::{SightingCount, Sightings};
+pub use tracking::status::TrackingStatus;
+pub use tracking::tracker::{Strategy, TrackedFrame, Tracker};

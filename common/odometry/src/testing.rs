@@ -3,14 +3,14 @@
 //! test can script what every frame sees.
 
 use crate::config::OdometryConfig;
-use crate::depth_grid::DepthGrid;
-use crate::frame::{Descriptor, FrameFeatures};
-use crate::manhattan::WorldManhattan;
+use crate::depth::grid::DepthGrid;
+use crate::frontend::features::{Descriptor, FrameFeatures};
+use crate::map::manhattan::WorldManhattan;
 use crate::map::{KeyFrame, Map};
-use crate::mapper::Mapper;
-use crate::matching::ScalePyramid;
-use crate::status::TrackingStatus;
-use crate::tracker::TrackedFrame;
+use crate::mapping::mapper::Mapper;
+use crate::tracking::matching::ScalePyramid;
+use crate::tracking::status::TrackingStatus;
+use crate::tracking::tracker::TrackedFrame;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{FrameId, KeyFrameId};
 use gfs_core::rng::SplitMix64;

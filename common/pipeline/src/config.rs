@@ -74,7 +74,7 @@ pub struct PipelineConfig {
     /// Realtime: how long a keyframe's local mapping may take before its local BA stops
     /// at its best iterate, ms; the BA also stops as soon as the next keyframe request
     /// arrives (ORB-SLAM2's abort flag). Lockstep and inline runs ignore it, so that
-    /// they stay reproducible. Default 40 (README, "Latency").
+    /// they stay reproducible. Default 40 (docs/results.md, "Latency").
     pub realtime_ba_budget_ms: u64,
     /// `[pipeline.scheduling.<stage>]`: nice level, policy and CPUs of each stage.
     pub scheduling: SchedulingConfig,

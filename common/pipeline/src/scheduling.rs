@@ -16,7 +16,7 @@ use std::collections::BTreeMap;
 
 /// The nice level of the per-keyframe stages by default. With Linux's CFS weights, a
 /// nice-10 process gets about a tenth of a core that a nice-0 process also wants, and
-/// all of a core that no one else wants. Measured on two cores (README, "Latency").
+/// all of a core that no one else wants. Measured on two cores (docs/results.md, "Latency").
 pub const KEYFRAME_STAGE_NICE: i32 = 10;
 
 /// CPUs a `cpu_set_t` can name.

@@ -67,7 +67,7 @@ pub fn depth_at(depth: ImageView<'_, f32>, u: f32, v: f32, min_m: f32, max_m: f3
 ///   the camera moves. It gets no depth, as over a hole, and is used as a bearing.
 ///
 /// Read at the wall's depth, a table's corners pulled the pose along the wall by
-/// several millimetres a frame on fast low-texture motion (issue 17's fast 21).
+/// several millimetres a frame on fast motion past a table in a bare room.
 pub fn keypoint_depth(depth: ImageView<'_, f32>, u: f32, v: f32, min_m: f32, max_m: f32) -> f32 {
     let under = depth_at(depth, u, v, min_m, max_m);
     if under == 0.0 {

@@ -28,12 +28,12 @@ pub use correct::optimise_loop;
 pub use correction::{LoopCorrection, apply_correction};
 pub use detect::proximity_candidates;
 pub use place::{Description, NODE_LEVEL, PlaceIndex};
-pub use verify::{LoopMatch, Verifier};
+pub use verify::{FrameQuery, LoopMatch, Verifier};
 
 use crate::config::{LoopClosingConfig, OdometryConfig};
 use crate::map::Map;
-use crate::matching::ScalePyramid;
-use crate::pose_solver::PoseSolver;
+use crate::tracking::matching::ScalePyramid;
+use crate::tracking::pose_solver::PoseSolver;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::KeyFrameId;
 use gfs_optim::analyse_constraint;

@@ -3,8 +3,8 @@
 
 use super::*;
 use crate::config::OdometryConfig;
-use crate::pose_solver::PoseSolver;
 use crate::testing::{Scene, camera, first_keyframe, pose, scale, unlinked};
+use crate::tracking::pose_solver::PoseSolver;
 use nalgebra::{Isometry3, Translation3};
 
 /// Keyframes after the first, away from it (3 m to the side), before the return.
@@ -174,7 +174,7 @@ fn verify_return(
         .filter_map(|id| map.point(id).map(|p| p.descriptor))
         .collect();
     let mut exhaustive = Vec::new();
-    crate::matching::match_descriptors(&descriptors, &place, 50, 0.75, &mut exhaustive);
+    crate::tracking::matching::match_descriptors(&descriptors, &place, 50, 0.75, &mut exhaustive);
     let bow = |kf| {
         places
             .describe(&map.keyframe(kf).expect("kf").features.point_descriptors)

@@ -9,10 +9,10 @@
 
 use super::place::PlaceIndex;
 use super::place_points::PlacePoints;
-use crate::frame::FrameFeatures;
+use crate::frontend::features::FrameFeatures;
 use crate::map::Map;
-use crate::pose_solver::PoseSolver;
-use crate::ransac::{Correspondence, RigidRansac};
+use crate::tracking::pose_solver::PoseSolver;
+use crate::tracking::ransac::{Correspondence, RigidRansac};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{KeyFrameId, MapPointId};
 use gfs_place::FeatureVector;
@@ -47,6 +47,19 @@ pub struct Verifier {
     matches: Vec<Option<usize>>,
 }
 
+/// A frame to find in the map: its features, its keypoints grouped by vocabulary node
+/// ([`PlaceIndex::describe`]) and the map points it already sees (sorted; not matched
+/// again).
+#[derive(Clone, Copy)]
+pub struct FrameQuery<'a> {
+    /// The frame's features.
+    pub features: &'a FrameFeatures,
+    /// Its keypoints by vocabulary node.
+    pub nodes: &'a FeatureVector,
+    /// Map points the frame already sees.
+    pub seen: &'a [MapPointId],
+}
+
 impl Verifier {
     /// A verifier for `camera`, optimising poses with `solver`.
     pub fn new(camera: PinholeCamera, solver: PoseSolver) -> Self {
@@ -75,16 +88,12 @@ impl Verifier {
         let nodes = places.nodes(current)?;
         let mut seen: Vec<MapPointId> = keyframe.point_ids.iter().flatten().copied().collect();
         seen.sort_unstable();
-        self.verify_frame(
-            map,
-            places,
-            &keyframe.features,
+        let frame = FrameQuery {
+            features: &keyframe.features,
             nodes,
-            &seen,
-            candidate,
-            min_inliers,
-            seed,
-        )
+            seen: &seen,
+        };
+        self.verify_frame(map, places, frame, candidate, min_inliers, seed)
     }
 
     /// Verifies that a frame of `features` (its keypoints grouped by vocabulary node in
@@ -92,22 +101,21 @@ impl Verifier {
     /// of it and its connected keyframes, but those in `seen`, sorted; `places` synced
     /// with `map`): the frame's pose there, or `None` when fewer than `min_inliers`
     /// matches survive. A keyframe of the map checks a loop ([`Self::verify`]); a lost
-    /// frame is relocalised ([`crate::map_relocalisation`]).
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "the map and its places, the frame, the candidate, the acceptance and the seed"
-    )]
+    /// frame is relocalised ([`crate::tracking::relocalisation::against_map`]).
     pub fn verify_frame(
         &mut self,
         map: &Map,
         places: &PlaceIndex,
-        features: &FrameFeatures,
-        nodes: &FeatureVector,
-        seen: &[MapPointId],
+        frame: FrameQuery,
         candidate: KeyFrameId,
         min_inliers: usize,
         seed: u64,
     ) -> Option<LoopMatch> {
+        let FrameQuery {
+            features,
+            nodes,
+            seen,
+        } = frame;
         self.place.gather(map, places, candidate, seen);
         self.place
             .match_frame(nodes, &features.point_descriptors, &mut self.matches);

@@ -1,6 +1,6 @@
 //! A keyframe: a frame kept in the map with its pose, features and landmark links.
 
-use crate::frame::FrameFeatures;
+use crate::frontend::features::FrameFeatures;
 use gfs_core::ids::{KeyFrameId, MapLineId, MapPlaneId, MapPointId};
 use nalgebra::Isometry3;
 

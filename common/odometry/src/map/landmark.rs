@@ -4,7 +4,7 @@
 //! that kind pointing back at it.
 
 use super::{IdMap, KeyFrame};
-use crate::frame::Descriptor;
+use crate::frontend::features::Descriptor;
 use gfs_core::ids::{KeyFrameId, MapLineId, MapPlaneId, MapPointId};
 use std::hash::Hash;
 
@@ -165,7 +165,7 @@ pub(super) fn most_central(descriptors: &[Descriptor]) -> Option<Descriptor> {
     let mut best = (u32::MAX, 0);
     for (i, a) in descriptors.iter().enumerate() {
         for (j, b) in descriptors.iter().enumerate() {
-            row[j] = crate::frame::hamming(a, b);
+            row[j] = crate::frontend::features::hamming(a, b);
         }
         row.sort_unstable();
         let median = row[(n - 1) / 2];

@@ -2,7 +2,7 @@
 
 use super::KeyFrame;
 use super::landmark::Described;
-use crate::frame::Descriptor;
+use crate::frontend::features::Descriptor;
 use gfs_core::ids::KeyFrameId;
 use nalgebra::{Point3, Vector3};
 

@@ -8,6 +8,7 @@ mod correction;
 mod keyframe;
 mod landmark;
 mod line;
+pub(crate) mod manhattan;
 mod neighbourhood;
 mod plane;
 mod point;

@@ -57,7 +57,7 @@ fn keyframe(n: usize) -> KeyFrame {
         line_ids: Vec::new(),
         plane_ids: Vec::new(),
         loop_correction: Isometry3::identity(),
-        features: crate::frame::FrameFeatures {
+        features: crate::frontend::features::FrameFeatures {
             id: FrameId(0),
             ..features
         },

@@ -8,11 +8,11 @@ use super::messages::{
 };
 use crate::config::OdometryConfig;
 use crate::loop_closing::{LoopCloser, LoopClosure, LoopCorrection, apply_correction};
-use crate::manhattan::WorldManhattan;
+use crate::map::manhattan::WorldManhattan;
 use crate::map::{Map, NeighbourhoodBounds};
-use crate::map_relocalisation::MapRelocaliser;
-use crate::mapper::Mapper;
-use crate::matching::ScalePyramid;
+use crate::mapping::mapper::Mapper;
+use crate::tracking::matching::ScalePyramid;
+use crate::tracking::relocalisation::against_map::MapRelocaliser;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::KeyFrameId;
 use nalgebra::Isometry3;

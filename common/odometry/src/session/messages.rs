@@ -3,12 +3,12 @@
 //! local mapping the other way. Both are plain
 //! serde values; the pipeline sends them as bincode, the in-process odometry by value.
 
-use crate::frame::FrameFeatures;
+use crate::frontend::features::FrameFeatures;
 use crate::loop_closing::LoopCorrection;
-use crate::manhattan::WorldManhattan;
 use crate::map::Map;
-use crate::sightings::Sightings;
-use crate::tracker::TrackedFrame;
+use crate::map::manhattan::WorldManhattan;
+use crate::tracking::sightings::Sightings;
+use crate::tracking::tracker::TrackedFrame;
 use gfs_core::ids::{FrameId, KeyFrameId, MapPointId};
 use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};

@@ -5,8 +5,11 @@
 //! `mapper` services each run one half; [`crate::Odometry`] runs both in one thread
 //! with the same messages, so both paths give the same poses.
 
+pub(crate) mod final_trajectory;
 mod mapping;
 mod messages;
+pub(crate) mod messages_check;
+pub(crate) mod odometry;
 mod state;
 #[cfg(test)]
 mod tests;

@@ -3,8 +3,8 @@
 
 use super::*;
 use crate::config::OdometryConfig;
-use crate::status::TrackingStatus;
 use crate::testing::{Scene, camera, pose};
+use crate::tracking::status::TrackingStatus;
 use gfs_lines::grid::GridConfig;
 
 fn halves() -> (TrackingSession, MappingSession) {
@@ -131,7 +131,7 @@ fn a_long_outage_starts_a_new_map_that_resets_the_mappers_and_the_axes() {
     assert!(tracking.apply(mapping.insert(out.keyframe.expect("first keyframe"))));
     assert!(tracking.manhattan().axes().is_some());
     let frames_before_new_map = OdometryConfig::default().tracking.frames_before_new_map;
-    let blind = |k: u64| crate::frame::FrameFeatures {
+    let blind = |k: u64| crate::frontend::features::FrameFeatures {
         id: gfs_core::ids::FrameId(k),
         timestamp: k as f64 / 30.0,
         ..Default::default()

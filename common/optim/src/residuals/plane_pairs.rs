@@ -1,4 +1,4 @@
-//! Structural errors of two map planes (issue 17): walls facing each other are
+//! Structural errors of two map planes: walls facing each other are
 //! parallel, a wall and the floor perpendicular. As for lines ([`super::ParallelLines`],
 //! [`super::PerpendicularLines`]) the smooth forms are used: `e = n_i x n_j` (`|e| =
 //! |sin|` of the angle between the normals, zero for opposite normals too) and

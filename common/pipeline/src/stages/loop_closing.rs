@@ -14,8 +14,8 @@ use gfs_ipc::{
     topics,
 };
 use gfs_odometry::loop_closing::LoopCloser;
-use gfs_odometry::matching::ScalePyramid;
 use gfs_odometry::session::{LoopVerdict, MapUpdate};
+use gfs_odometry::tracking::matching::ScalePyramid;
 use serde::{Deserialize, Serialize};
 
 /// The checkpoint ([`Searched`]).

@@ -144,19 +144,34 @@ pub fn wall_panel(
     wall.at(s0, t0, d)
 }
 
-/// A frame of four (or three, without `bottom`) boxes `width` wide and `depth` deep
-/// around the opening `s0..s1`, `t0..t1` of `wall`.
-#[allow(clippy::too_many_arguments)]
+/// The bars of a frame around an opening: `width` wide along the wall, `depth` out of
+/// it; three sides without `bottom` (a door's).
+#[derive(Clone, Copy)]
+pub struct FrameBars {
+    /// Width of a bar along the wall, metres.
+    pub width: f64,
+    /// How far the bars stand out of the wall, metres.
+    pub depth: f64,
+    /// The bars' faces.
+    pub look: BoxLook,
+    /// Whether the opening has a bottom bar.
+    pub bottom: bool,
+}
+
+/// A frame of four (or three) boxes around the opening `s0..s1`, `t0..t1` of `wall`.
 pub fn frame(
     b: &mut SceneBuilder,
     wall: &Wall,
     [s0, s1]: [f64; 2],
     [t0, t1]: [f64; 2],
-    width: f64,
-    depth: f64,
-    look: BoxLook,
-    bottom: bool,
+    bars: FrameBars,
 ) {
+    let FrameBars {
+        width,
+        depth,
+        look,
+        bottom,
+    } = bars;
     let tb = if bottom { t0 - width } else { t0 };
     wall_box(b, wall, [s0 - width, s0], [tb, t1 + width], depth, look);
     wall_box(b, wall, [s1, s1 + width], [tb, t1 + width], depth, look);
@@ -182,10 +197,12 @@ pub fn door(
         wall,
         [s0, s1],
         [0.0, height],
-        0.07,
-        0.035,
-        frame_look,
-        false,
+        FrameBars {
+            width: 0.07,
+            depth: 0.035,
+            look: frame_look,
+            bottom: false,
+        },
     );
     wall_box(
         b,
@@ -207,7 +224,18 @@ pub fn window(
     frame_look: BoxLook,
 ) {
     wall_panel(b, wall, s, t, PANEL_OFFSET, glass);
-    frame(b, wall, s, t, 0.06, 0.05, frame_look, true);
+    frame(
+        b,
+        wall,
+        s,
+        t,
+        FrameBars {
+            width: 0.06,
+            depth: 0.05,
+            look: frame_look,
+            bottom: true,
+        },
+    );
     let mid = 0.5 * (s[0] + s[1]);
     wall_box(b, wall, [mid - 0.02, mid + 0.02], t, 0.03, frame_look);
     wall_box(
@@ -251,7 +279,18 @@ pub fn poster(
         }
     }
     if let Some(look) = frame_look {
-        frame(b, wall, s, t, 0.035, 0.025, look, true);
+        frame(
+            b,
+            wall,
+            s,
+            t,
+            FrameBars {
+                width: 0.035,
+                depth: 0.025,
+                look,
+                bottom: true,
+            },
+        );
     }
 }
 

@@ -1,7 +1,8 @@
 //! The 6 x 5 x 2.7 m room, textured and low-texture.
 
 use super::parts::{
-    door, frame, jitter, poster, poster_texture, shell, wall_box, wall_panel, walls, window,
+    FrameBars, door, frame, jitter, poster, poster_texture, shell, wall_box, wall_panel, walls,
+    window,
 };
 use crate::rng::SplitMix64;
 use crate::scene::{Aabb, BoxLook, Scene, SceneBuilder, SceneKind};
@@ -352,10 +353,12 @@ pub fn low_texture(seed: u64) -> Scene {
         &north,
         [2.6, 3.6],
         [1.2, 1.8],
-        0.04,
-        0.025,
-        BoxLook::all(furniture),
-        true,
+        FrameBars {
+            width: 0.04,
+            depth: 0.025,
+            look: BoxLook::all(furniture),
+            bottom: true,
+        },
     );
     wall_box(
         &mut b,

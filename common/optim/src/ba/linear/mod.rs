@@ -213,28 +213,36 @@ impl ReducedSystem {
         // Eliminate points and planes, 3-dof landmarks (the Schur complement:
         // S -= W A^-1 W^T, r += W A^-1 g).
         Self::eliminate3(
-            &self.point_used,
-            &self.point_obs,
-            &lin.h_point,
-            &lin.g_point,
-            &lin.w_point_obs,
+            Landmarks3 {
+                used: &self.point_used,
+                obs: &self.point_obs,
+                h: &lin.h_point,
+                g: &lin.g_point,
+                w_obs: &lin.w_point_obs,
+            },
             damping,
             &mut self.point_inverse,
-            &mut self.scratch_y3,
-            &mut self.rhs,
-            &mut self.slot_values,
+            SchurTarget {
+                scratch: &mut self.scratch_y3,
+                rhs: &mut self.rhs,
+                slot_values: &mut self.slot_values,
+            },
         )?;
         Self::eliminate3(
-            &self.plane_eliminated,
-            &self.plane_obs,
-            &lin.h_plane,
-            &lin.g_plane,
-            &lin.w_plane_obs,
+            Landmarks3 {
+                used: &self.plane_eliminated,
+                obs: &self.plane_obs,
+                h: &lin.h_plane,
+                g: &lin.g_plane,
+                w_obs: &lin.w_plane_obs,
+            },
             damping,
             &mut self.plane_inverse,
-            &mut self.scratch_y3,
-            &mut self.rhs,
-            &mut self.slot_values,
+            SchurTarget {
+                scratch: &mut self.scratch_y3,
+                rhs: &mut self.rhs,
+                slot_values: &mut self.slot_values,
+            },
         )?;
         // Eliminate the lines outside every structural pair the same way; keep the others.
         for l in 0..p.lines.len() {
@@ -313,19 +321,24 @@ impl ReducedSystem {
 
     /// Eliminates the used 3-dof landmarks of one kind (points or planes) into the
     /// reduced system, keeping each one's damped inverse for the back-substitution.
-    #[allow(clippy::too_many_arguments)]
     fn eliminate3(
-        used: &[bool],
-        obs: &ObsLists,
-        h: &[Matrix3<f64>],
-        g: &[nalgebra::Vector3<f64>],
-        w_obs: &[Matrix6x3<f64>],
+        landmarks: Landmarks3,
         damping: &Damping,
         inverses: &mut [Matrix3<f64>],
-        scratch: &mut Vec<Matrix6x3<f64>>,
-        rhs: &mut [f64],
-        slot_values: &mut [Matrix6<f64>],
+        reduced: SchurTarget,
     ) -> Result<(), NotPositiveDefinite> {
+        let Landmarks3 {
+            used,
+            obs,
+            h,
+            g,
+            w_obs,
+        } = landmarks;
+        let SchurTarget {
+            scratch,
+            rhs,
+            slot_values,
+        } = reduced;
         let (start, entries) = obs;
         for x in 0..used.len() {
             if !used[x] {
@@ -467,4 +480,23 @@ impl ReducedSystem {
         }
         predicted
     }
+}
+
+/// The linearisation of one kind of 3-dof landmark (points or planes) that the Schur
+/// complement eliminates: which are used, their observations by pose, their own blocks
+/// `h`, `g` and the pose-landmark blocks `w_obs`.
+struct Landmarks3<'a> {
+    used: &'a [bool],
+    obs: &'a ObsLists,
+    h: &'a [Matrix3<f64>],
+    g: &'a [nalgebra::Vector3<f64>],
+    w_obs: &'a [Matrix6x3<f64>],
+}
+
+/// The reduced camera system the elimination writes into (right-hand side and the
+/// pose-pair blocks), with its scratch row.
+struct SchurTarget<'a> {
+    scratch: &'a mut Vec<Matrix6x3<f64>>,
+    rhs: &'a mut [f64],
+    slot_values: &'a mut [Matrix6<f64>],
 }

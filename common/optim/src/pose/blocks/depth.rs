@@ -3,7 +3,7 @@
 //! A pair's cost is less what its reference normal's noise adds on average as the point
 //! slides along the surface ([`DepthObservation::normal_tilt_variance`]).
 
-use super::{Block, Gate, flagged};
+use super::{Block, Gate, flag_within_gate, flagged};
 use crate::pose::lm::Normal;
 use crate::pose::{DepthObservation, PoseOptimizerConfig};
 use crate::residuals::PointToPlane;
@@ -93,11 +93,10 @@ impl Block for DepthBlock<'_> {
     }
 
     fn classify(&self, pose: &Isometry3<f64>, gate: Gate, inliers: &mut [bool]) {
-        let threshold = gate.threshold(self.chi2);
-        for (flag, obs) in inliers.iter_mut().zip(self.observations) {
+        flag_within_gate(self.observations, gate, inliers, |obs| {
             let e = error(pose, obs);
-            *flag = obs.inv_sigma2 > 0.0 && obs.inv_sigma2 * e * e <= threshold;
-        }
+            (obs.inv_sigma2 > 0.0).then_some((obs.inv_sigma2 * e * e, self.chi2))
+        });
     }
 }
 

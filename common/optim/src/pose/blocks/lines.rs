@@ -1,7 +1,7 @@
 //! Map lines against 2D lines (paper eq. 7): the distances of the projected endpoints
 //! to the observed line, two pixel errors of one sigma.
 
-use super::{Block, Gate, flagged};
+use super::{Block, Gate, flag_within_gate, flagged, sum_costs};
 use crate::pose::lm::Normal;
 use crate::pose::{LineObservation, PoseOptimizerConfig};
 use crate::residuals::LineReprojection;
@@ -44,18 +44,13 @@ impl Block for LineBlock<'_> {
 
     inlier_fields!(line_inliers, num_line_inliers);
 
-    fn cost(
-        &self,
-        pose: &Isometry3<f64>,
-        inliers: &[bool],
-        robust: bool,
-        mut sum: f64,
-    ) -> Option<f64> {
-        for obs in flagged(self.observations, inliers) {
-            let s = obs.inv_sigma2 * self.error(pose, obs)?.norm_squared();
-            sum += if robust { self.huber.cost(s) } else { s };
-        }
-        Some(sum)
+    fn cost(&self, pose: &Isometry3<f64>, inliers: &[bool], robust: bool, sum: f64) -> Option<f64> {
+        sum_costs(self.observations, inliers, robust, sum, |obs| {
+            Some((
+                obs.inv_sigma2 * self.error(pose, obs)?.norm_squared(),
+                &self.huber,
+            ))
+        })
     }
 
     fn linearize(
@@ -79,13 +74,15 @@ impl Block for LineBlock<'_> {
     }
 
     fn classify(&self, pose: &Isometry3<f64>, gate: Gate, inliers: &mut [bool]) {
-        let threshold = gate.threshold(self.chi2);
-        for (flag, obs) in inliers.iter_mut().zip(self.observations) {
-            *flag = obs.inv_sigma2 > 0.0
-                && self
-                    .error(pose, obs)
-                    .is_some_and(|e| obs.inv_sigma2 * e.norm_squared() <= threshold);
-        }
+        flag_within_gate(self.observations, gate, inliers, |obs| {
+            if obs.inv_sigma2 <= 0.0 {
+                return None;
+            }
+            Some((
+                obs.inv_sigma2 * self.error(pose, obs)?.norm_squared(),
+                self.chi2,
+            ))
+        });
     }
 
     fn add_pixel_residuals(

@@ -41,6 +41,7 @@ pub(crate) use prior::PriorBlock;
 
 use super::lm::Normal;
 use super::result::PoseResult;
+use crate::robust::Huber;
 use nalgebra::Isometry3;
 
 /// Which observations a classification lets through.
@@ -117,4 +118,36 @@ pub(crate) fn flagged<'o, T>(
         .zip(inliers)
         .filter(|(_, f)| **f)
         .map(|(obs, _)| obs)
+}
+
+/// `sum` plus the cost of each flagged observation: its squared whitened error with its
+/// kernel from `whitened2`, Huber-robustified when `robust`; `None` as soon as one
+/// cannot be evaluated (the pose is refused). The one accumulation of the blocks whose
+/// terms are whitened errors.
+pub(crate) fn sum_costs<'h, T>(
+    observations: &[T],
+    inliers: &[bool],
+    robust: bool,
+    mut sum: f64,
+    whitened2: impl Fn(&T) -> Option<(f64, &'h Huber)>,
+) -> Option<f64> {
+    for obs in flagged(observations, inliers) {
+        let (s, huber) = whitened2(obs)?;
+        sum += if robust { huber.cost(s) } else { s };
+    }
+    Some(sum)
+}
+
+/// Flags each observation inlier when its squared whitened error, with the chi-square
+/// quantile of its degrees of freedom, from `whitened2` passes `gate`; `None` (not
+/// evaluable, or an observation without weight) is an outlier.
+pub(crate) fn flag_within_gate<T>(
+    observations: &[T],
+    gate: Gate,
+    inliers: &mut [bool],
+    whitened2: impl Fn(&T) -> Option<(f64, f64)>,
+) {
+    for (flag, obs) in inliers.iter_mut().zip(observations) {
+        *flag = whitened2(obs).is_some_and(|(s, chi2)| s <= gate.threshold(chi2));
+    }
 }

@@ -1,7 +1,7 @@
 //! Frame planes against map planes: the plane-to-plane error (normal difference and
 //! offset), whitened by the normal's and the offset's sigmas.
 
-use super::{Block, Gate, flagged};
+use super::{Block, Gate, flag_within_gate, flagged, sum_costs};
 use crate::pose::lm::Normal;
 use crate::pose::{PlaneObservation, PoseOptimizerConfig};
 use crate::robust::Huber;
@@ -31,18 +31,10 @@ impl Block for PlaneBlock<'_> {
 
     inlier_fields!(plane_inliers, num_plane_inliers);
 
-    fn cost(
-        &self,
-        pose: &Isometry3<f64>,
-        inliers: &[bool],
-        robust: bool,
-        mut sum: f64,
-    ) -> Option<f64> {
-        for obs in flagged(self.observations, inliers) {
-            let s = obs.whitened_error(pose).norm_squared();
-            sum += if robust { self.huber.cost(s) } else { s };
-        }
-        Some(sum)
+    fn cost(&self, pose: &Isometry3<f64>, inliers: &[bool], robust: bool, sum: f64) -> Option<f64> {
+        sum_costs(self.observations, inliers, robust, sum, |obs| {
+            Some((obs.whitened_error(pose).norm_squared(), &self.huber))
+        })
     }
 
     fn linearize(
@@ -62,11 +54,10 @@ impl Block for PlaneBlock<'_> {
     }
 
     fn classify(&self, pose: &Isometry3<f64>, gate: Gate, inliers: &mut [bool]) {
-        let threshold = gate.threshold(self.chi2);
-        for (flag, obs) in inliers.iter_mut().zip(self.observations) {
+        flag_within_gate(self.observations, gate, inliers, |obs| {
             let s = obs.whitened_error(pose).norm_squared();
-            *flag = s.is_finite() && s <= threshold;
-        }
+            s.is_finite().then_some((s, self.chi2))
+        });
     }
 }
 

@@ -2,7 +2,7 @@
 //! measured depth the RGB-D error whose virtual disparity `bf / depth` fixes depth and
 //! scale. The two have their own degrees of freedom, so their own threshold and kernel.
 
-use super::{Block, Gate, flagged};
+use super::{Block, Gate, flag_within_gate, flagged, sum_costs};
 use crate::pose::lm::Normal;
 use crate::pose::{PointObservation, PoseOptimizerConfig};
 use crate::residuals::{PointReprojection, StereoPointReprojection};
@@ -77,19 +77,11 @@ impl Block for PointBlock<'_> {
 
     inlier_fields!(point_inliers, num_point_inliers);
 
-    fn cost(
-        &self,
-        pose: &Isometry3<f64>,
-        inliers: &[bool],
-        robust: bool,
-        mut sum: f64,
-    ) -> Option<f64> {
-        for obs in flagged(self.observations, inliers) {
+    fn cost(&self, pose: &Isometry3<f64>, inliers: &[bool], robust: bool, sum: f64) -> Option<f64> {
+        sum_costs(self.observations, inliers, robust, sum, |obs| {
             let (e2, depth) = self.residual2(pose, obs)?;
-            let s = obs.inv_sigma2 * e2;
-            sum += if robust { self.huber(depth).cost(s) } else { s };
-        }
-        Some(sum)
+            Some((obs.inv_sigma2 * e2, self.huber(depth)))
+        })
     }
 
     fn linearize(
@@ -116,13 +108,14 @@ impl Block for PointBlock<'_> {
     }
 
     fn classify(&self, pose: &Isometry3<f64>, gate: Gate, inliers: &mut [bool]) {
-        for (flag, obs) in inliers.iter_mut().zip(self.observations) {
-            *flag = obs.inv_sigma2 > 0.0
-                && self.residual2(pose, obs).is_some_and(|(e2, depth)| {
-                    let chi2 = if depth { self.depth_chi2 } else { self.chi2 };
-                    obs.inv_sigma2 * e2 <= gate.threshold(chi2)
-                });
-        }
+        flag_within_gate(self.observations, gate, inliers, |obs| {
+            if obs.inv_sigma2 <= 0.0 {
+                return None;
+            }
+            let (e2, depth) = self.residual2(pose, obs)?;
+            let chi2 = if depth { self.depth_chi2 } else { self.chi2 };
+            Some((obs.inv_sigma2 * e2, chi2))
+        });
     }
 
     fn add_pixel_residuals(
