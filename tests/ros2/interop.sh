@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The ROS 2 interop tests (tests/ros2/bags.py and interop.py say what they cover): sets up its own
-# Python venv from PyPI (cached in target/ros2-venv), builds the executables, runs it.
+# The ROS 2 interop tests (tests/ros2/bags.py, interop.py and live_compressed.py say what
+# they cover): sets up its own Python venv from PyPI (cached in target/ros2-venv), builds
+# the executables, runs them.
 # Skips with a reason when ../shared/data is absent. Loopback only.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -20,3 +21,4 @@ fi
 cargo build --release --workspace --bins --quiet
 "$VENV/bin/python" tests/ros2/bags.py
 "$VENV/bin/python" tests/ros2/interop.py
+"$VENV/bin/python" tests/ros2/live_compressed.py
