@@ -281,3 +281,60 @@ fn sigint_during_an_inline_run_writes_only_the_frames_done() {
         "{poses} poses after SIGINT"
     );
 }
+
+/// `gfsvo run --json` carries the NEES of the published covariances, `gfsvo eval
+/// --consistency` gives the same from the run's files, and a broken covariance file is
+/// named with its line.
+#[test]
+fn the_consistency_of_a_run_is_read_back_and_a_bad_covariance_line_is_named() {
+    let out = out_dir("consistency");
+    let _ = std::fs::remove_dir_all(&out);
+    let o = gfsvo(&[
+        "run",
+        small().to_str().unwrap(),
+        "--mode",
+        "inline",
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let run: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let nees = &run["nees"];
+    assert_eq!(nees["pairs"], FRAMES - 1);
+    let mean = nees["mean"].as_f64().expect("a mean NEES");
+    // The idealised sensor's textured room: a covariance of the right size (2.45 over
+    // the 300-frame built-in room).
+    assert!((0.5..20.0).contains(&mean), "mean NEES {mean}");
+    let gt = small().join("groundtruth.txt");
+    let est = out.join("odometry.txt");
+    let args = |extra: &[&str]| {
+        let mut a = vec![
+            "eval",
+            "--gt",
+            gt.to_str().unwrap(),
+            "--est",
+            est.to_str().unwrap(),
+            "--json",
+        ];
+        a.extend_from_slice(extra);
+        gfsvo(&a)
+    };
+    let o = args(&["--consistency"]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let eval: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let again = eval["nees"]["mean"].as_f64().expect("a mean NEES");
+    // The files hold the poses to the micrometre.
+    assert!((again - mean).abs() < 0.02 * mean, "{again} against {mean}");
+
+    let covariances = out.join("covariance.txt");
+    let text_in = std::fs::read_to_string(&covariances).unwrap();
+    let mut lines: Vec<String> = text_in.lines().map(str::to_owned).collect();
+    lines[4] = lines[4].replacen(' ', " nan-ish ", 1);
+    let broken = out.join("broken.txt");
+    std::fs::write(&broken, lines.join("\n")).unwrap();
+    expect_error(
+        &args(&["--consistency", broken.to_str().unwrap()]),
+        &["broken.txt", ":5"],
+    );
+}

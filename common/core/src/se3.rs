@@ -10,7 +10,9 @@
 //! Jacobian of a point in the camera frame `p_c = T p_w` with respect to `delta` is
 //! `[I, -[p_c]x]`.
 
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6};
+use nalgebra::{
+    Isometry3, Matrix3, Matrix6, Rotation3, Translation3, UnitQuaternion, Vector3, Vector6,
+};
 
 /// Below this angle (radians) the series expansions of V and its inverse are used.
 const SMALL_ANGLE: f64 = 1e-8;
@@ -60,6 +62,19 @@ pub fn log(t: &Isometry3<f64>) -> Vector6<f64> {
     let phi = t.rotation.scaled_axis();
     let rho = left_jacobian_inverse(&phi) * t.translation.vector;
     Vector6::new(rho.x, rho.y, rho.z, phi.x, phi.y, phi.z)
+}
+
+/// The adjoint of `t` on tangent vectors `[rho; phi]`: `exp(Ad(t) xi) = t exp(xi)
+/// t^-1`, `Ad(t) = [R, [p]x R; 0, R]`. It carries a covariance from one frame's axes to
+/// another's: `Ad C Ad^T`.
+pub fn adjoint(t: &Isometry3<f64>) -> Matrix6<f64> {
+    let r: Matrix3<f64> = t.rotation.to_rotation_matrix().into_inner();
+    let mut ad = Matrix6::zeros();
+    ad.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
+    ad.fixed_view_mut::<3, 3>(0, 3)
+        .copy_from(&(skew(&t.translation.vector) * r));
+    ad.fixed_view_mut::<3, 3>(3, 3).copy_from(&r);
+    ad
 }
 
 /// `exp(delta) * t`: the project's pose update.
@@ -136,5 +151,14 @@ mod tests {
             let col = (plus - minus) / (2.0 * h);
             assert!((col - analytic.column(k)).norm() < 1e-6, "column {k}");
         }
+    }
+
+    #[test]
+    fn adjoint_moves_a_tangent_vector_through_a_pose() {
+        let t = exp(&Vector6::new(0.3, -0.1, 0.2, 0.4, 0.2, -0.3));
+        let xi = Vector6::new(0.01, -0.02, 0.015, 0.005, -0.01, 0.02);
+        let conjugated = t * exp(&xi) * t.inverse();
+        let moved = exp(&(adjoint(&t) * xi));
+        assert!((log(&(moved.inverse() * conjugated))).norm() < 1e-12);
     }
 }

@@ -57,5 +57,6 @@ pub use lists::{TUM_MAX_DIFFERENCE_S, associate_tum};
 pub use reader::FrameReader;
 pub use sequence::{DEFAULT_READ_AHEAD, Sequence};
 pub use trajectory::{
-    Ate, EVO_MAX_DIFF_S, EvalError, Evaluation, Rpe, Stats, Trajectory, TrajectoryError, evaluate,
+    Ate, CHI2_6DOF_999, Consistency, Covariances, EVO_MAX_DIFF_S, EvalError, Evaluation, Rpe,
+    Stats, Trajectory, TrajectoryError, consistency, evaluate,
 };

@@ -10,9 +10,7 @@ use crate::msg::{
     Header, Odometry, Pose, PoseWithCovariance, Quaternion, StringMsg, TfMessage, Time, Transform,
     TransformStamped, Twist, TwistWithCovariance, Vector3,
 };
-use nalgebra::{
-    Isometry3, Matrix3, Matrix6, Quaternion as NaQuaternion, Translation3, UnitQuaternion,
-};
+use nalgebra::{Isometry3, Matrix6, Quaternion as NaQuaternion, Translation3, UnitQuaternion};
 
 /// One frame's output of the tracker.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -74,7 +72,7 @@ impl OdometryPublisherState {
 
     /// The covariance of the base pose (base-frame axes) for a camera-frame covariance.
     pub fn base_covariance(&self, camera: &Matrix6<f64>) -> Matrix6<f64> {
-        let ad = adjoint(&self.camera_in_base);
+        let ad = gfs_core::se3::adjoint(&self.camera_in_base);
         ad * camera * ad.transpose()
     }
 
@@ -163,18 +161,6 @@ impl OdometryPublisherState {
             status,
         }
     }
-}
-
-/// The adjoint of `t` on (translation, rotation) perturbations: `[R, [p]x R; 0, R]`.
-fn adjoint(t: &Isometry3<f64>) -> Matrix6<f64> {
-    let r: Matrix3<f64> = t.rotation.to_rotation_matrix().into_inner();
-    let p = t.translation.vector;
-    let mut ad = Matrix6::zeros();
-    ad.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
-    ad.fixed_view_mut::<3, 3>(0, 3)
-        .copy_from(&(p.cross_matrix() * r));
-    ad.fixed_view_mut::<3, 3>(3, 3).copy_from(&r);
-    ad
 }
 
 fn vector(x: f64, y: f64, z: f64) -> Vector3 {

@@ -5,8 +5,8 @@
 //! furniture boxes, door / window / picture frames, objects rotated about the vertical,
 //! each surface with its own procedural texture: bricks, tiles, wood, posters with
 //! glyph text, book spines...) is ray cast ([`render_view`]) along a smooth hand-held-like
-//! trajectory ([`TrajectoryKind`]) with optional Kinect-like sensor effects
-//! ([`NoiseConfig`]), and written in TUM RGB-D layout ([`SynthSequence::write_tum`]).
+//! trajectory ([`TrajectoryKind`]) with the effects of a depth camera
+//! ([`NoiseConfig`], [`Sensor`]: ideal, Kinect v1, RealSense, time of flight), and written in TUM RGB-D layout ([`SynthSequence::write_tum`]).
 //!
 //! **Why.** Tests need data with known answers and no download: poses, depth, planes
 //! ([`Scene::planes`]), straight 3D edges ([`Scene::edges`]) and the Manhattan frame
@@ -44,16 +44,20 @@ mod render;
 mod rng;
 mod scene;
 mod scenes;
+mod sensor;
+#[cfg(test)]
+mod sensor_tests;
 mod sequence;
 mod texture;
 mod trajectory;
 mod tum;
 
 pub use error::SynthError;
-pub use noise::{DEPTH_SCALE, DEPTH_SIGMA_PER_Z2, NoiseConfig};
+pub use noise::{AUTO_EXPOSURE_TARGET, DEPTH_SCALE, DEPTH_SIGMA_PER_Z2, NoiseConfig};
 pub use render::{render_luma_view, render_view};
 pub use rng::SplitMix64;
 pub use scene::{Aabb, EdgeKind, MIN_CLEARANCE, Quad, Scene, SceneEdge, SceneKind, ScenePlane};
+pub use sensor::{CorrelatedField, DepthModel, Sensor, TimeOfFlight, Triangulation, WAVES};
 pub use sequence::{LUMA_WEIGHTS, SynthConfig, SynthFrame, SynthSequence, luma};
 pub use texture::{Poster, PosterItem, Rgb, Texture};
 pub use trajectory::TrajectoryKind;

@@ -1,6 +1,6 @@
 //! A synthetic sequence: a scene, a trajectory and a noise model, rendered on demand.
 
-use crate::noise::{self, NoiseConfig};
+use crate::noise::{self, AUTO_EXPOSURE_TARGET, FrameSettings, NoiseConfig};
 use crate::render::{RenderBuffers, render_into};
 use crate::rng::SplitMix64;
 use crate::scene::{Scene, SceneKind};
@@ -128,11 +128,13 @@ impl SynthSequence {
             trajectory::generate(&scene, config.trajectory, config.frames, config.seed, rate);
         let mut rng = SplitMix64::keyed(config.seed, &[0x6761_696e]);
         let (p1, p2) = (rng.range(0.0, TAU), rng.range(0.0, TAU));
+        let automatic = auto_exposure(&scene, &config, &poses, rate);
         let gains = (0..config.frames)
             .map(|i| {
                 let t = i as f64 / rate;
                 let drift = 0.6 * (TAU * t / 7.7 + p1).sin() + 0.4 * (TAU * t / 3.3 + p2).sin();
-                1.0 + config.noise.exposure * drift
+                let gain = 1.0 + config.noise.exposure * drift;
+                automatic.as_ref().map_or(gain, |a| gain * a[i])
             })
             .collect();
         SynthSequence {
@@ -209,12 +211,17 @@ impl SynthSequence {
     ) {
         let pose = self.pose(i);
         render_into(&self.scene, &self.config.camera, &pose, scratch);
+        let settings = FrameSettings {
+            seed: self.config.seed,
+            frame: i,
+            time_s: i as f64 / self.config.rate_hz,
+            gain: self.gains[i],
+            fx: self.config.camera.fx,
+        };
         noise::apply(
             scratch,
             &self.config.noise,
-            self.gains[i],
-            self.config.seed,
-            i,
+            &settings,
             &mut frame.rgb,
             &mut frame.depth,
         );
@@ -231,6 +238,59 @@ impl SynthSequence {
             *g = luma(*c);
         }
     }
+}
+
+/// Width of the preview the auto-exposure meters the scene on, pixels.
+const METER_WIDTH: usize = 64;
+/// Range of the auto-exposure gain.
+const AUTO_GAIN: (f64, f64) = (0.5, 2.0);
+
+/// The auto-exposure gain of every frame (`None` when off): the gain that brings the
+/// mean brightness of a small clean preview to [`AUTO_EXPOSURE_TARGET`], followed by
+/// a first-order lag of `auto_exposure_s` (the first frame starts settled).
+fn auto_exposure(
+    scene: &Scene,
+    config: &SynthConfig,
+    poses: &[Isometry3<f64>],
+    rate: f64,
+) -> Option<Vec<f64>> {
+    let tau = config.noise.auto_exposure_s;
+    if !(tau > 0.0 && tau.is_finite()) {
+        return None;
+    }
+    let k = METER_WIDTH as f64 / config.camera.width.max(1) as f64;
+    let c = &config.camera;
+    let meter = PinholeCamera::new(
+        c.fx * k,
+        c.fy * k,
+        (METER_WIDTH as f64 - 1.0) / 2.0,
+        ((c.height as f64 * k).round() - 1.0) / 2.0,
+        METER_WIDTH,
+        (c.height as f64 * k).round().max(1.0) as usize,
+    );
+    let follow = 1.0 - (-1.0 / (rate * tau)).exp();
+    let mut buffers = RenderBuffers::default();
+    let mut gain: Option<f64> = None;
+    let weights = LUMA_WEIGHTS.map(|w| w as f32);
+    Some(
+        poses
+            .iter()
+            .map(|pose| {
+                render_into(scene, &meter, pose, &mut buffers);
+                let sum: f64 = buffers
+                    .colour
+                    .iter()
+                    .map(|p| f64::from(weights[0] * p[0] + weights[1] * p[1] + weights[2] * p[2]))
+                    .sum();
+                let mean = sum / buffers.colour.len().max(1) as f64;
+                let target =
+                    (AUTO_EXPOSURE_TARGET / mean.max(1e-6)).clamp(AUTO_GAIN.0, AUTO_GAIN.1);
+                let next = gain.map_or(target, |g| g + follow * (target - g));
+                gain = Some(next);
+                next
+            })
+            .collect(),
+    )
 }
 
 /// BT.601 luma weights of red, green and blue.

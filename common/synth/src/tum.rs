@@ -8,6 +8,7 @@
 use crate::error::{SynthError, io};
 use crate::noise::DEPTH_SCALE;
 use crate::render::RenderBuffers;
+use crate::sensor::DepthModel;
 use crate::sequence::{SynthConfig, SynthFrame, SynthSequence};
 use gfs_core::{DepthImage, GrayImage, RgbImage};
 use image::codecs::png::PngEncoder;
@@ -125,16 +126,11 @@ impl SynthSequence {
             );
         }
         let cam = c.camera;
-        let marker = format!(
+        let mut marker = format!(
             "# Written by `gfsvo synth`: scene {}, trajectory {}, {} frames, seed {}.\n\
              # Ideal pinhole (no distortion); ground truth in groundtruth.txt.\n\
              [camera]\nfx = {:?}\nfy = {:?}\ncx = {:?}\ncy = {:?}\nwidth = {}\nheight = {}\n\n\
-             [depth]\nscale = {:?}\nmin_m = 0.1\nmax_m = 10.0\n\n\
-             # The rendered noise is independent from pixel to pixel and from frame to\n\
-             # frame: every depth node is aligned and sampled, against the newest\n\
-             # keyframe's depth (see configs/synthetic.toml).\n\
-             [tracking.depth]\nsource_step = 1\nindependent_pixels_per_node = 4.0\n\
-             photometric_sigma = 0.4\nkeyframe_reference = true\n",
+             [depth]\nscale = {:?}\nmin_m = 0.1\nmax_m = 10.0\n",
             c.scene,
             c.trajectory,
             c.frames,
@@ -147,6 +143,17 @@ impl SynthSequence {
             cam.height,
             DEPTH_SCALE
         );
+        // Only the idealised sensor's noise is known to be independent; a camera like
+        // the real ones gets what a user of the real one writes: intrinsics and depth.
+        if c.noise.depth_model == DepthModel::Independent {
+            marker.push_str(
+                "\n# The rendered noise is independent from pixel to pixel and from frame to\n\
+                 # frame: every depth node is aligned and sampled, against the newest\n\
+                 # keyframe's depth (see configs/synthetic.toml).\n\
+                 [tracking.depth]\nsource_step = 1\nindependent_pixels_per_node = 4.0\n\
+                 photometric_sigma = 0.4\nkeyframe_reference = true\n",
+            );
+        }
         for (file, text) in [
             ("rgb.txt", rgb),
             ("depth.txt", depth),

@@ -315,3 +315,58 @@ fn gray_is_rounded_bt601_luma_of_the_colour() {
         assert_eq!(*g, gfs_synth::luma(*c));
     }
 }
+
+/// The auto-exposure of the real sensors holds the image's mean brightness nearer its
+/// target than a fixed exposure does as the view moves between dark and bright
+/// surfaces, and follows with its lag: the gain moves at most a share
+/// `1 - exp(-1 / (30 Hz * 0.3 s))` (11 %) of the way to its target each frame.
+#[test]
+fn auto_exposure_follows_the_scene_with_lag() {
+    let config = |noise| SynthConfig {
+        frames: 90,
+        trajectory: TrajectoryKind::Fast,
+        ..small(2, noise)
+    };
+    let automatic = NoiseConfig {
+        auto_exposure_s: 0.3,
+        ..NoiseConfig::none()
+    };
+    let fixed = SynthSequence::new(config(NoiseConfig::none()));
+    let auto = SynthSequence::new(config(automatic));
+    let brightness = |seq: &SynthSequence, i: usize| {
+        let f = seq.render(i);
+        f.gray.as_slice().iter().map(|&g| f64::from(g)).sum::<f64>()
+            / f.gray.as_slice().len() as f64
+    };
+    let spread = |values: &[f64]| {
+        let mean = values.iter().sum::<f64>() / values.len() as f64;
+        (values.iter().map(|v| (v / mean).ln().powi(2)).sum::<f64>() / values.len() as f64).sqrt()
+    };
+    let frames: Vec<usize> = (0..90).step_by(3).collect();
+    let fixed_levels: Vec<f64> = frames.iter().map(|&i| brightness(&fixed, i)).collect();
+    let auto_levels: Vec<f64> = frames.iter().map(|&i| brightness(&auto, i)).collect();
+    let (s_fixed, s_auto) = (spread(&fixed_levels), spread(&auto_levels));
+    assert!(
+        s_fixed > 0.03,
+        "the fixed exposure's brightness varies by {s_fixed}"
+    );
+    assert!(
+        s_auto < 0.7 * s_fixed,
+        "auto {s_auto} against fixed {s_fixed}"
+    );
+    // Each frame's gain: the target would be reached in one step without the lag.
+    let gains: Vec<f64> = (0..90).map(|i| auto.gain(i)).collect();
+    let (lo, hi) = gains
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &g| (a.min(g), b.max(g)));
+    let step = gains
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .fold(0.0, f64::max);
+    assert!(hi - lo > 0.05, "gain range {lo}..{hi}");
+    assert!(
+        step < 0.115 * (hi - lo) + 1e-9,
+        "largest step {step} of a range {}",
+        hi - lo
+    );
+}

@@ -12,7 +12,7 @@ use crate::session::{FramePose, MappingSession, TrackingSession};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::FrameId;
 use gfs_lines::grid::GridConfig;
-use nalgebra::{Isometry3, Rotation3};
+use nalgebra::{Isometry3, Matrix6, Rotation3};
 use std::time::{Duration, Instant};
 
 /// Time spent on the last frame.
@@ -32,6 +32,7 @@ pub struct Odometry {
     tracking: TrackingSession,
     mapping: MappingSession,
     timings: OdometryTimings,
+    covariance: Option<Matrix6<f64>>,
 }
 
 impl Odometry {
@@ -48,6 +49,7 @@ impl Odometry {
             mapping: MappingSession::new(&config, camera, scale_factor, levels),
             tracking: TrackingSession::new(config, camera, scale_factor, levels, grid),
             timings: OdometryTimings::default(),
+            covariance: None,
         }
     }
 
@@ -79,6 +81,12 @@ impl Odometry {
         self.tracking.anchor(pose)
     }
 
+    /// The covariance of the last frame's pose as the tracker published it (the
+    /// pipeline's `pose` topic carries the same), `None` when it was not tracked.
+    pub fn pose_covariance(&self) -> Option<Matrix6<f64>> {
+        self.covariance
+    }
+
     /// Timings of the last processed frame.
     pub fn timings(&self) -> &OdometryTimings {
         &self.timings
@@ -100,6 +108,7 @@ impl Odometry {
     /// line per input frame.
     pub fn skip(&mut self, id: FrameId, timestamp: f64) -> FramePose {
         self.timings = OdometryTimings::default();
+        self.covariance = None;
         self.tracking.skip(id, timestamp)
     }
 
@@ -113,6 +122,7 @@ impl Odometry {
         let start = Instant::now();
         let output = self.tracking.process(features)?;
         let tracked = start.elapsed();
+        self.covariance = output.covariance;
         let mut pose = output.pose;
         let mut mapping = None;
         if let Some(request) = output.keyframe {

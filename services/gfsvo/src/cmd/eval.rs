@@ -1,11 +1,15 @@
 //! `gfsvo eval`: ATE and RPE of an estimated trajectory against ground truth, with the
-//! definitions of the evo tools; a table, a JSON object and a PNG plot.
+//! definitions of the evo tools, and the consistency of its covariances (NEES); a
+//! table, a JSON object and a PNG plot.
 
 use crate::CliResult;
 use gfs_dataset::plot::{PlotConfig, write_evaluation_png};
-use gfs_dataset::{EVO_MAX_DIFF_S, Evaluation, Stats, Trajectory, evaluate};
+use gfs_dataset::{
+    CHI2_6DOF_999, Consistency, Covariances, EVO_MAX_DIFF_S, Evaluation, Stats, Trajectory,
+    consistency, evaluate,
+};
 use serde_json::json;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// What `gfsvo eval` computes, printed under `--help`.
 const ABOUT_METRICS: &str = "\
@@ -19,8 +23,25 @@ of the other within --max-diff, as evo does), then:
   RPE / second   the same over matched poses about 1 s apart
                  (= TUM evaluate_rpe.py --fixed_delta --delta 1 --delta_unit s)
 
-Example:
-  gfsvo eval --gt data/fr1_rpy/groundtruth.txt --est traj.txt --plot eval.png";
+With --consistency, the covariances of the estimated poses (`covariance.txt` of
+`gfsvo run`, beside --est unless a FILE is given: `timestamp c11 ... c66`, each
+pose's 6x6 covariance row by row over its error e = (x y z rx ry rz) in the camera's
+axes, true T_wc = T_wc exp(e), the order of ROS's pose.covariance) are checked
+against the actual error of every frame-to-frame motion:
+  motion         M = A^-1 B for consecutive estimated poses A, B (camera to world)
+                 whose ground truth G0, G1 was matched; G = G0^-1 G1
+  its error      d = log(M^-1 G), in B's axes
+  its covariance S = Cb + Ad(M^-1) Ca Ad(M^-1)^T from the two poses' covariances
+                 Ca, Cb taken as independent (first order)
+  NEES           d^T S^-1 d: chi-square with 6 degrees of freedom when consistent,
+                 mean 6, 0.1 % of the pairs beyond 22.46 (the 99.9 % bound);
+                 a pair with a pose without covariance (predicted) has no NEES
+  f2f trans      median |translation of M^-1 G| over all pairs, m
+  reported sigma median sqrt(trace of S's translation block), m
+
+Examples:
+  gfsvo eval --gt data/fr1_rpy/groundtruth.txt --est traj.txt --plot eval.png
+  gfsvo eval --gt groundtruth.txt --est out/odometry.txt --consistency";
 
 /// Arguments of `gfsvo eval`.
 #[derive(clap::Args)]
@@ -38,6 +59,10 @@ pub struct EvalArgs {
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Also the consistency of the covariances (NEES of each frame-to-frame motion, see
+    /// below), from FILE or the covariance.txt beside --est.
+    #[arg(long, value_name = "FILE")]
+    pub consistency: Option<Option<PathBuf>>,
     /// Largest timestamp difference of an associated pair, s (evo's default 0.01).
     #[arg(long, default_value_t = EVO_MAX_DIFF_S)]
     pub max_diff: f64,
@@ -55,16 +80,66 @@ pub fn run(args: &EvalArgs) -> CliResult {
     let gt = Trajectory::read_tum(&args.gt)?;
     let est = Trajectory::read_tum(&args.est)?;
     let eval = evaluate(&gt, &est, args.max_diff)?;
+    let consistency = match &args.consistency {
+        None => None,
+        Some(file) => {
+            let path = file.clone().unwrap_or_else(|| {
+                args.est
+                    .parent()
+                    .unwrap_or_else(|| Path::new("."))
+                    .join("covariance.txt")
+            });
+            let covariances = Covariances::read(&path)?;
+            Some(consistency(&gt, &est, &covariances, args.max_diff))
+        }
+    };
     if let Some(path) = &args.plot {
         write_evaluation_png(&eval, path, &PlotConfig::default())?;
         tracing::info!("plot written to {}", path.display());
     }
     if args.json {
-        println!("{}", to_json(&eval));
+        let mut object = to_json(&eval);
+        if let Some(c) = &consistency {
+            object["nees"] = consistency_json(c);
+        }
+        println!("{object}");
     } else {
         print_table(&eval);
+        if let Some(c) = &consistency {
+            print_consistency(c);
+        }
     }
     Ok(())
+}
+
+/// The consistency figures as a JSON object (`gfsvo eval --json`, `gfsvo run --json`).
+pub fn consistency_json(c: &Consistency) -> serde_json::Value {
+    json!({
+        "pairs": c.pairs,
+        "pairs_with_covariance": c.nees.len(),
+        "mean": c.mean_nees,
+        "beyond_999": c.beyond_bound,
+        "f2f_trans_median_m": c.median_translation_error_m,
+        "reported_sigma_median_m": c.median_reported_sigma_m,
+    })
+}
+
+/// The consistency figures as lines of text.
+pub fn print_consistency(c: &Consistency) {
+    let number =
+        |v: Option<f64>, scale: f64| v.map_or("-".to_owned(), |v| format!("{:.2}", v * scale));
+    println!(
+        "NEES f2f    mean {} over {} of {} pairs (6 if consistent), {} % beyond {CHI2_6DOF_999}",
+        number(c.mean_nees, 1.0),
+        c.nees.len(),
+        c.pairs,
+        number(c.beyond_bound, 100.0),
+    );
+    println!(
+        "f2f trans   median error {} mm, median reported sigma {} mm",
+        number(c.median_translation_error_m, 1000.0),
+        number(c.median_reported_sigma_m, 1000.0),
+    );
 }
 
 fn to_json(eval: &Evaluation) -> serde_json::Value {

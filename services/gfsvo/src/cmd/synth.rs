@@ -3,7 +3,7 @@
 
 use crate::CliResult;
 use clap::{Args, ValueEnum};
-use gfs_synth::{NoiseConfig, SceneKind, SynthConfig, SynthSequence, TrajectoryKind};
+use gfs_synth::{NoiseConfig, SceneKind, Sensor, SynthConfig, SynthSequence, TrajectoryKind};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -23,7 +23,8 @@ depth/ (16-bit PNG, 5000 units per metre), rgb.txt, depth.txt, associations.txt,
 groundtruth.txt (T_wc, timestamp tx ty tz qx qy qz qw) and synthetic.toml (the camera, \
 which `gfsvo` picks up when it reads the folder).\n\n\
 The same flags and seed always give the same images, bit for bit.\n\n\
-Examples:\n  gfsvo synth                                   # room, slow, 300 frames, mild noise\n  \
+Examples:\n  gfsvo synth                                   # room, slow, 300 frames, Kinect v1\n  \
+gfsvo synth --sensor ideal                    # the tuned, independent noise\n  \
 gfsvo synth --scene corridor --traj fast --frames 600 --seed 7\n  \
 gfsvo synth --traj loop --frames 1081          # three laps of the room, back at the start\n  \
 gfsvo synth --scene low-texture --clean --out /tmp/lowtex   # exact depth, clean colour")]
@@ -52,27 +53,40 @@ pub struct SynthArgs {
     /// (640 gives the camera of configs/synthetic.toml).
     #[arg(long, default_value_t = 640)]
     width: usize,
-    /// Kinect-like depth noise: sigma = 1.425e-3 z^2 m, quantised to 1/5000 m [default].
+    /// The depth camera imitated: `kinect-v1` (structured light: 7.5 cm baseline,
+    /// 580 px, disparity error correlated across the image and drifting, 1/8 px steps,
+    /// projector shadows, dropouts at edges and grazing angles, auto-exposure,
+    /// vignetting), `realsense` (D435-like active stereo: 50 mm, 0.08 px matching
+    /// error), `tof` (time of flight: error proportional to depth, flying pixels at
+    /// edges, no shadows), `ideal` (depth error independent from pixel to pixel and
+    /// frame to frame, 1.425e-3 z^2 m, slow exposure drift: what configs/synthetic.toml
+    /// and the end-to-end tests are tuned on).
+    #[arg(long, value_enum, default_value_t = SensorArg::KinectV1)]
+    sensor: SensorArg,
+    /// The sensor's depth error [default].
     #[arg(long, overrides_with = "no_depth_noise")]
     depth_noise: bool,
     /// Exact depth (no noise, no quantisation in memory).
     #[arg(long, overrides_with = "depth_noise")]
     no_depth_noise: bool,
-    /// Missing depth: random blobs, surfaces seen at more than 75 deg, beyond 8 m [default].
+    /// Missing depth: random blobs, grazing angles, beyond the range, shadows and
+    /// depth edges as the sensor has them [default].
     #[arg(long, overrides_with = "no_holes")]
     holes: bool,
     /// Depth everywhere a surface is hit.
     #[arg(long, overrides_with = "holes")]
     no_holes: bool,
-    /// Standard deviation of gaussian image noise, in gray levels (0 = none).
-    #[arg(long, default_value_t = 2.0, value_name = "SIGMA")]
-    image_noise: f64,
-    /// Amplitude of the slow exposure (gain) drift, relative: 0.08 lets the gain wander
-    /// within [0.92, 1.08]; 0 = constant exposure.
-    #[arg(long, default_value_t = 0.08, value_name = "AMPLITUDE")]
-    exposure: f64,
-    /// No sensor effects at all: same as --no-depth-noise --no-holes --image-noise 0
-    /// --exposure 0.
+    /// Standard deviation of gaussian image noise, in gray levels (0 = none) [default:
+    /// the sensor's, 2 or 2.5].
+    #[arg(long, value_name = "SIGMA")]
+    image_noise: Option<f64>,
+    /// Amplitude of a slow exposure (gain) drift, relative: 0.08 lets the gain wander
+    /// within [0.92, 1.08]; 0 = none [default: 0.08 for `ideal`, 0 for the others,
+    /// whose auto-exposure follows the scene].
+    #[arg(long, value_name = "AMPLITUDE")]
+    exposure: Option<f64>,
+    /// No sensor effects at all: exact depth, clean constant images (whatever the
+    /// sensor).
     #[arg(long)]
     clean: bool,
 }
@@ -83,6 +97,15 @@ enum SceneArg {
     Room,
     LowTexture,
     Corridor,
+}
+
+/// Sensor names on the command line.
+#[derive(Clone, Copy, ValueEnum)]
+enum SensorArg {
+    KinectV1,
+    Realsense,
+    Tof,
+    Ideal,
 }
 
 /// Trajectory names on the command line.
@@ -106,11 +129,14 @@ impl SynthArgs {
         if !(1..=MAX_FRAMES).contains(&self.frames) {
             return Err(format!("--frames {} must be in [1, {MAX_FRAMES}]", self.frames).into());
         }
-        if !(self.image_noise >= 0.0 && self.image_noise.is_finite()) {
-            return Err(format!("--image-noise {} must be >= 0", self.image_noise).into());
+        let of_sensor = NoiseConfig::of(self.sensor.into());
+        let image_sigma = self.image_noise.unwrap_or(of_sensor.image_sigma);
+        let exposure = self.exposure.unwrap_or(of_sensor.exposure);
+        if !(image_sigma >= 0.0 && image_sigma.is_finite()) {
+            return Err(format!("--image-noise {image_sigma} must be >= 0").into());
         }
-        if !(0.0..1.0).contains(&self.exposure) {
-            return Err(format!("--exposure {} must be in [0, 1)", self.exposure).into());
+        if !(0.0..1.0).contains(&exposure) {
+            return Err(format!("--exposure {exposure} must be in [0, 1)").into());
         }
         let noise = if self.clean {
             NoiseConfig::none()
@@ -118,9 +144,9 @@ impl SynthArgs {
             NoiseConfig {
                 depth_noise: !self.no_depth_noise,
                 holes: !self.no_holes,
-                image_sigma: self.image_noise,
-                exposure: self.exposure,
-                ..NoiseConfig::default()
+                image_sigma,
+                exposure,
+                ..of_sensor
             }
         };
         Ok(SynthConfig {
@@ -165,15 +191,31 @@ pub fn run(args: &SynthArgs) -> CliResult {
     let seconds = started.elapsed().as_secs_f64();
     let c = sequence.config();
     println!(
-        "wrote {} frames ({}x{}, scene {}, trajectory {}, seed {}) to {} in {seconds:.1} s ({:.1} ms/frame)",
+        "wrote {} frames ({}x{}, scene {}, trajectory {}, sensor {}, seed {}) to {} in {seconds:.1} s ({:.1} ms/frame)",
         sequence.len(),
         c.camera.width,
         c.camera.height,
         c.scene,
         c.trajectory,
+        if args.clean {
+            "clean"
+        } else {
+            Sensor::from(args.sensor).name()
+        },
         c.seed,
         out.display(),
         1000.0 * seconds / sequence.len().max(1) as f64,
     );
     Ok(())
+}
+
+impl From<SensorArg> for Sensor {
+    fn from(sensor: SensorArg) -> Self {
+        match sensor {
+            SensorArg::KinectV1 => Sensor::KinectV1,
+            SensorArg::Realsense => Sensor::RealSense,
+            SensorArg::Tof => Sensor::Tof,
+            SensorArg::Ideal => Sensor::Ideal,
+        }
+    }
 }

@@ -37,6 +37,8 @@ pub struct InlineOutcome {
     pub map_bytes: Option<MapBytes>,
     /// True when SIGINT / SIGTERM stopped the run: `poses` holds the frames done.
     pub interrupted: bool,
+    /// The covariance of each tracked frame's published pose, by frame id.
+    pub covariances: crate::pipeline::Covariances,
 }
 
 /// Frames per block of [`InlineOutcome::tracking_blocks`].
@@ -77,6 +79,7 @@ pub fn run(
     let mut poses = Vec::with_capacity(total);
     let mut finals = FinalTrajectory::with_capacity(total);
     let mut interrupted = false;
+    let mut covariances = crate::pipeline::Covariances::new();
     let (width, height) = (pinhole.width, pinhole.height);
     let blank = (
         Image::<u8>::new(width, height),
@@ -119,6 +122,9 @@ pub fn run(
         } else {
             odometry.process(features)?
         };
+        if let Some(covariance) = odometry.pose_covariance() {
+            covariances.insert(pose.id.0, covariance);
+        }
         times.record(&frontend, &odometry);
         finals.record(
             odometry.anchor(&pose),
@@ -137,6 +143,7 @@ pub fn run(
         tracker_keyframes: odometry.tracking().map().keyframe_count(),
         map_bytes: map_bytes(&odometry),
         interrupted,
+        covariances,
     })
 }
 

@@ -1,8 +1,9 @@
 //! `gfsvo run`: the odometry over a dataset folder (or the built-in synthetic sequence),
 //! as the supervised multi-process pipeline (default, `lockstep`), paced at the camera
 //! rate (`realtime`), as threads of one process (`threads`) or in this thread
-//! (`inline`). Writes `trajectory.txt`, `status.txt` and (pipeline) `profile.json`,
-//! prints the ATE when ground truth exists and the time per stage.
+//! (`inline`). Writes `trajectory.txt`, `odometry.txt`, `covariance.txt`, `status.txt`
+//! and (pipeline) `profile.json`, prints the ATE and the consistency of the published
+//! covariances (NEES) when ground truth exists, and the time per stage.
 
 pub mod checks;
 mod inline;
@@ -11,7 +12,7 @@ use crate::CliResult;
 use crate::bench::stats::Summary;
 use crate::config::Config;
 use crate::pipeline::{self, PipelineOptions};
-use gfs_dataset::{EVO_MAX_DIFF_S, Evaluation, Sequence, Trajectory, evaluate};
+use gfs_dataset::{Covariances, EVO_MAX_DIFF_S, Evaluation, Sequence, Trajectory, evaluate};
 use gfs_ipc::{Mode, RunId};
 use gfs_odometry::{FramePose, TrackingStatus};
 use gfs_pipeline::stages::StageSettings;
@@ -44,7 +45,8 @@ pub struct RunArgs {
     /// Config TOML (default: chosen from the dataset folder name; see configs/).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Output folder for trajectory.txt, status.txt, profile.json.
+    /// Output folder for trajectory.txt, odometry.txt, covariance.txt (each published
+    /// pose's covariance, see `gfsvo eval --help`), status.txt, profile.json.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
     /// How to run the stages.
@@ -68,7 +70,8 @@ pub struct RunArgs {
     /// Ablation: run without loop closing.
     #[arg(long)]
     pub no_loop_closing: bool,
-    /// Print the summary as one JSON object (ATE, frames per status, timings).
+    /// Print the summary as one JSON object (ATE, frames per status, timings, and with
+    /// ground truth the NEES of the published covariances as `gfsvo eval --consistency`).
     #[arg(long)]
     pub json: bool,
     /// Also write /odom, /tf and the status as a ROS 2 bag file (MCAP, CDR).
@@ -139,7 +142,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         tracking_blocks = outcome.tracking_blocks;
         tracker_map = Some((outcome.tracker_keyframes, outcome.map_bytes));
         let processed = outcome.poses.len();
-        let covariances = crate::pipeline::Covariances::new();
+        let covariances = outcome.covariances;
         (
             outcome.poses,
             outcome.odometry,
@@ -228,7 +231,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
 
     let wall_s = clock.elapsed().as_secs_f64();
     write_outputs(&args.out, &poses)?;
-    write_odometry(&args.out, &odometry)?;
+    let published = write_odometry(&args.out, &odometry)?;
+    let covariance_track = write_covariances(&args.out, &odometry, &covariances)?;
     if let Some(path) = &args.mcap {
         super::ros2_io::record_mcap(
             path,
@@ -254,6 +258,9 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
         _ => None,
     };
+    let consistency = ground_truth
+        .as_ref()
+        .map(|gt| gfs_dataset::consistency(gt, &published, &covariance_track, EVO_MAX_DIFF_S));
     let mut counts = BTreeMap::<&str, usize>::new();
     for pose in &poses {
         *counts.entry(pose.status.as_str()).or_default() += 1;
@@ -283,6 +290,9 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
         if let Some(found) = &loops {
             object["loops"] = serde_json::to_value(found)?;
+        }
+        if let Some(c) = &consistency {
+            object["nees"] = super::eval::consistency_json(c);
         }
         if !tracking_blocks.is_empty() {
             let medians: Vec<f64> = tracking_blocks.iter().map(|s| s.median).collect();
@@ -327,6 +337,9 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
         if let Some(e) = &evaluation {
             print_ate(e);
+        }
+        if let Some(c) = &consistency {
+            super::eval::print_consistency(c);
         }
         if let Some(e) = &odometry_evaluation {
             println!(
@@ -393,14 +406,32 @@ pub fn write_outputs(out: &Path, poses: &[FramePose]) -> CliResult<Trajectory> {
 }
 
 /// Writes `odometry.txt` (TUM): the poses as published, continuous (REP 105 `odom`);
-/// `trajectory.txt` holds the final best estimate, in the map frame.
-pub fn write_odometry(out: &Path, poses: &[FramePose]) -> CliResult {
+/// `trajectory.txt` holds the final best estimate, in the map frame. Returns the
+/// poses written.
+pub fn write_odometry(out: &Path, poses: &[FramePose]) -> CliResult<Trajectory> {
     let mut trajectory = Trajectory::new();
     for pose in poses {
         trajectory.push(pose.timestamp, pose.world_from_camera);
     }
     trajectory.write_tum(&out.join("odometry.txt"))?;
-    Ok(())
+    Ok(trajectory)
+}
+
+/// Writes `covariance.txt`: the covariance of each published pose that has one (see
+/// `gfs_dataset::Covariances` for the format and convention); returns them.
+fn write_covariances(
+    out: &Path,
+    poses: &[FramePose],
+    covariances: &crate::pipeline::Covariances,
+) -> CliResult<Covariances> {
+    let mut track = Covariances::new();
+    for pose in poses {
+        if let Some(c) = covariances.get(&pose.id.0) {
+            track.push(pose.timestamp, *c);
+        }
+    }
+    track.write(&out.join("covariance.txt"))?;
+    Ok(track)
 }
 
 /// The built-in synthetic sequence, rendered into the cache on first use with a
