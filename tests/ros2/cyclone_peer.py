@@ -6,15 +6,22 @@ writes the /odom poses as JSON lines.
 
 Usage: cyclone_peer.py FOLDER OUT.jsonl [--rate 30] [--wait-match 60] [--frames N]
        [--stamps tum|nine] [--diagnostics DIAG.jsonl] [--distortion-model NAME]
+       [--compressed]
 
 The CameraInfo is the folder's camera: its synthetic.toml `[camera]` (any lens model)
 when it has one, else TUM freiburg1's. `--stamps nine` stamps the frames on a clock
 whose nanoseconds have nine non-zero digits (tum.nine_digit_stamp).
 
+--compressed publishes as image_transport's plugins do: sensor_msgs/CompressedImage,
+png colour on <colour>/compressed (`rgb8; png compressed bgr8`), compressedDepth png of
+the millimetres on <depth>/compressedDepth (`16UC1; compressedDepth png`, its 12-byte
+header first).
+
 Cyclone's Python writer must use XCDR1 to be read by RustDDS. Images are serialised by
 hand (numpy bytes after the CDR header fields), once, before publishing starts: the IDL
 serialiser writes a uint8 sequence element by element, too slow for 30 Hz in Python."""
 import argparse
+import io
 import json
 import tomllib
 import os
@@ -25,6 +32,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from PIL import Image as PilImage
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
@@ -103,6 +111,31 @@ class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
 
     def serialize(self, buffer=None, endianness=None, use_version_2=None):
         return self.data  # the whole payload, built by image_payload
+
+
+@dataclass
+class CompressedImage(IdlStruct, typename="sensor_msgs::msg::dds_::CompressedImage_"):
+    header: Header
+    format: str
+    data: sequence[uint8]
+
+    def serialize(self, buffer=None, endianness=None, use_version_2=None):
+        return self.data  # the whole payload, built by compressed_payload
+
+
+def compressed_payload(sec, nanosec, frame, fmt, data):
+    c = Cdr()
+    c.header(sec, nanosec, frame)
+    c.string(fmt)
+    c.u32(len(data))
+    c._put(data)
+    return c.bytes()
+
+
+def png(pixels):
+    buffer = io.BytesIO()
+    PilImage.fromarray(pixels).save(buffer, format="PNG")
+    return buffer.getvalue()
 
 
 def image_payload(sec, nanosec, frame, pixels, encoding, bytes_per_pixel):
@@ -250,6 +283,7 @@ def main():
     ap.add_argument("--stamps", choices=["tum", "nine"], default="tum")
     ap.add_argument("--diagnostics", help="write the /diagnostics received here (JSON lines)")
     ap.add_argument("--distortion-model", help="publish this model name in the CameraInfo")
+    ap.add_argument("--compressed", action="store_true")
     args = ap.parse_args()
 
     frame = "camera_color_optical_frame"
@@ -264,6 +298,14 @@ def main():
             sec, ns = dsec, dns = tum.nine_digit_stamp(i)
         # REP 118: 16UC1 in millimetres (TUM stores 5000 units per metre).
         mm = np.round(tum.depth_raw(depth_path).astype(np.float64) / 5.0).astype("<u2")
+        if args.compressed:
+            header = struct.pack("<iff", 0, 0.0, 0.0)
+            frames.append((t_rgb, sec, ns,
+                           compressed_payload(sec, ns, frame, "rgb8; png compressed bgr8",
+                                              png(tum.rgb8(rgb_path))),
+                           compressed_payload(dsec, dns, frame, "16UC1; compressedDepth png",
+                                              header + png(mm.astype(np.uint16)))))
+            continue
         frames.append((t_rgb, sec, ns,
                        image_payload(sec, ns, frame, tum.rgb8(rgb_path), "rgb8", 3),
                        image_payload(dsec, dns, frame, mm, "16UC1", 2)))
@@ -274,8 +316,16 @@ def main():
     sensor = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(5), xcdr1)
     reliable = Qos(Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
                    Policy.History.KeepLast(50), xcdr1)
-    colour_w = DataWriter(dp, Topic(dp, "rt/camera/color/image_raw", Image), qos=sensor)
-    depth_w = DataWriter(dp, Topic(dp, "rt/camera/aligned_depth_to_color/image_raw", Image), qos=sensor)
+    if args.compressed:
+        message = lambda payload: CompressedImage(None, "", payload)  # noqa: E731
+        colour_w = DataWriter(dp, Topic(dp, "rt/camera/color/image_raw/compressed", CompressedImage),
+                              qos=sensor)
+        depth_w = DataWriter(dp, Topic(dp, "rt/camera/aligned_depth_to_color/image_raw/compressedDepth",
+                                       CompressedImage), qos=sensor)
+    else:
+        message = lambda payload: Image(None, 0, 0, "", 0, 0, payload)  # noqa: E731
+        colour_w = DataWriter(dp, Topic(dp, "rt/camera/color/image_raw", Image), qos=sensor)
+        depth_w = DataWriter(dp, Topic(dp, "rt/camera/aligned_depth_to_color/image_raw", Image), qos=sensor)
     info_w = DataWriter(dp, Topic(dp, "rt/camera/color/camera_info", CameraInfo), qos=sensor)
     odom_r = DataReader(dp, Topic(dp, "rt/odom", Odometry), qos=reliable)
     diag_r = DataReader(dp, Topic(dp, "rt/diagnostics", DiagnosticArray), qos=reliable)
@@ -331,8 +381,8 @@ def main():
             time.sleep(min(0.002, due - now))
         info = camera_info(sec, ns)
         published[(sec, ns)] = time.time()
-        colour_w.write(Image(None, 0, 0, "", 0, 0, colour))
-        depth_w.write(Image(None, 0, 0, "", 0, 0, depth))
+        colour_w.write(message(colour))
+        depth_w.write(message(depth))
         if i % 30 == 0:
             info_w.write(info)
         if i == args.on_frame and args.command:

@@ -1,17 +1,19 @@
 //! ROS 2 bags in MCAP: reading the colour / depth / camera-info topics of a bag (a bag
 //! folder with `metadata.yaml` and `.mcap` files, or a bare `.mcap`) as a sequence of
-//! paired frames, and writing messages with the `ros2` profile (`cdr` messages,
-//! `ros2msg` schemas) that Foxglove, `ros2 bag` and `rosbags` read.
+//! paired frames, raw or as `image_transport` compressed them (each topic's schema says
+//! which), from uncompressed, zstd or lz4 chunks; and writing bags ([`BagWriter`]).
+//! A bag that did not finish (no footer) is refused as truncated; a malformed one is an
+//! error naming the file and the byte offset, whatever its length fields say.
 
+use crate::bag_records::{ChannelInfo, RecordMessage, Records, summary_channels, summary_start};
+pub use crate::bag_writer::{BagWriter, Compression};
 use crate::cdr::{self, CdrError};
-use crate::msg::{CameraInfo, Image};
+use crate::config::Transport;
+use crate::msg::{CameraInfo, CompressedImage, Image};
 use crate::pairing::{Paired, Pairer};
-use crate::schema::MessageSchema;
+use crate::transport::TransportImage;
 use gfs_core::stamp::Stamp;
-use serde::Serialize;
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
-use std::fs::File;
-use std::io::{BufReader, BufWriter};
+use std::collections::{BTreeSet, VecDeque};
 use std::path::{Path, PathBuf};
 
 /// A bag cannot be read or written.
@@ -31,13 +33,33 @@ pub enum BagError {
         /// The error.
         source: std::io::Error,
     },
-    /// The MCAP container is malformed (or uses a compression this build has not).
+    /// The MCAP writer failed.
     #[error("{path}: {message}")]
     Mcap {
         /// The file.
         path: PathBuf,
-        /// What the MCAP reader said.
+        /// What the MCAP writer said.
         message: String,
+    },
+    /// The file does not end as a complete MCAP file does.
+    #[error("{path}: truncated ({size} bytes): {reason}")]
+    Truncated {
+        /// The file.
+        path: PathBuf,
+        /// Its size.
+        size: u64,
+        /// What is missing.
+        reason: String,
+    },
+    /// A record is malformed.
+    #[error("{path}: corrupt at byte {offset}: {reason}")]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// How far the file was read.
+        offset: u64,
+        /// What is wrong.
+        reason: String,
     },
     /// A topic the run needs has no message.
     #[error("{path}: no message on {topic} (topics in the bag: {found})")]
@@ -48,6 +70,18 @@ pub enum BagError {
         topic: String,
         /// The topics the bag has.
         found: String,
+    },
+    /// A topic the run reads carries another message type.
+    #[error("{path}: {topic} carries {schema}, not {expected}")]
+    Schema {
+        /// The file.
+        path: PathBuf,
+        /// The topic.
+        topic: String,
+        /// Its schema name.
+        schema: String,
+        /// What the topic must carry.
+        expected: &'static str,
     },
     /// A payload is not a CDR message of the topic's type.
     #[error("{path}: {topic} at log time {log_time_ns} ns: {source}")]
@@ -66,21 +100,52 @@ pub enum BagError {
 /// The topics a bag is read for.
 #[derive(Clone, Debug)]
 pub struct BagTopics {
-    /// Colour images.
+    /// Colour images (raw; `<colour>/compressed` is the compressed transport's).
     pub colour: String,
-    /// Depth images.
+    /// Depth images (raw; `<depth>/compressedDepth` is the compressed transport's).
     pub depth: String,
     /// Camera info.
     pub camera_info: String,
+    /// The transport read when the bag has both.
+    pub transport: Transport,
+}
+
+impl BagTopics {
+    /// The topics of `raw` for each transport, `transport`'s first.
+    fn candidates(&self, raw: &str, plugin: &str) -> [String; 2] {
+        let compressed = format!("{raw}/{plugin}");
+        match self.transport {
+            Transport::Raw => [raw.to_owned(), compressed],
+            Transport::Compressed => [compressed, raw.to_owned()],
+        }
+    }
+
+    /// The topics read from a bag with `channels` (all its files' summaries): per image
+    /// stream, the preferred transport's topic if the bag has it, else the other's.
+    fn resolve(&self, channels: &[ChannelInfo]) -> Self {
+        let pick = |candidates: [String; 2]| {
+            let present = |t: &String| channels.iter().any(|c| &c.topic == t);
+            match candidates.iter().position(present) {
+                Some(i) => candidates[i].clone(),
+                None => candidates[0].clone(),
+            }
+        };
+        Self {
+            colour: pick(self.candidates(&self.colour, "compressed")),
+            depth: pick(self.candidates(&self.depth, "compressedDepth")),
+            camera_info: self.camera_info.clone(),
+            transport: self.transport,
+        }
+    }
 }
 
 /// One paired frame of a bag.
 #[derive(Clone, Debug)]
 pub struct BagFrame {
     /// The colour image.
-    pub colour: Image,
+    pub colour: TransportImage,
     /// Its depth image.
-    pub depth: Image,
+    pub depth: TransportImage,
 }
 
 /// The `.mcap` files of a bag, in name order.
@@ -118,14 +183,22 @@ pub fn is_bag(path: &Path) -> bool {
     bag_files(path).is_ok()
 }
 
+/// What one message of the bag is to the reader.
+enum Decoded {
+    Colour(TransportImage),
+    Depth(TransportImage),
+    Info(Box<CameraInfo>),
+    Skipped,
+}
+
 /// Reads the paired frames of a bag in order; colour without depth is skipped with a
-/// warning naming the topic and stamp, an undecodable message likewise.
+/// warning naming the topic and stamp, an undecodable image likewise.
 pub struct BagReader {
     path: PathBuf,
     topics: BagTopics,
     files: VecDeque<PathBuf>,
-    messages: Option<(PathBuf, mcap::io::MessageReader<BufReader<File>>)>,
-    pairer: Pairer<Image, Image>,
+    records: Option<(PathBuf, Records)>,
+    pairer: Pairer<TransportImage, TransportImage>,
     camera_info: Option<CameraInfo>,
     seen: BTreeSet<String>,
     counts: [usize; 3],
@@ -133,16 +206,25 @@ pub struct BagReader {
 }
 
 impl BagReader {
-    /// Opens the bag at `path`.
+    /// Opens the bag at `path`: checks that each file is complete and picks the image
+    /// topics from their summaries.
     ///
     /// # Errors
-    /// [`BagError::NotABag`] / [`BagError::Io`].
+    /// [`BagError::NotABag`] / [`BagError::Io`] / [`BagError::Truncated`] /
+    /// [`BagError::Corrupt`].
     pub fn open(path: &Path, topics: &BagTopics, slop_s: f64) -> Result<Self, BagError> {
+        let files = bag_files(path)?;
+        let mut channels = Vec::new();
+        for file in &files {
+            if let Some(start) = summary_start(file)? {
+                channels.extend(summary_channels(file, start)?);
+            }
+        }
         Ok(Self {
             path: path.to_path_buf(),
-            topics: topics.clone(),
-            files: bag_files(path)?.into(),
-            messages: None,
+            topics: topics.resolve(&channels),
+            files: files.into(),
+            records: None,
             pairer: Pairer::new(slop_s, 64),
             camera_info: None,
             seen: BTreeSet::new(),
@@ -156,10 +238,16 @@ impl BagReader {
         self.camera_info.as_ref()
     }
 
+    /// The colour and depth topics read (the transport found in the bag).
+    pub fn image_topics(&self) -> (&str, &str) {
+        (&self.topics.colour, &self.topics.depth)
+    }
+
     /// The next frame, `Ok(None)` at the end.
     ///
     /// # Errors
-    /// [`BagError`] for a malformed file, or (at the end) a topic with no message.
+    /// [`BagError`] for a malformed file, a topic of another type, or (at the end) a
+    /// topic with no message.
     pub fn next_frame(&mut self) -> Result<Option<BagFrame>, BagError> {
         loop {
             let decided = if self.ended {
@@ -209,90 +297,127 @@ impl BagReader {
         ];
         for (topic, count) in wanted.into_iter().zip(self.counts) {
             if count == 0 {
-                return Err(BagError::MissingTopic {
-                    path: self.path.clone(),
-                    topic: topic.clone(),
-                    found: self.seen.iter().cloned().collect::<Vec<_>>().join(", "),
-                });
+                return Err(self.missing(topic));
             }
         }
         Ok(())
     }
 
+    fn missing(&self, topic: &str) -> BagError {
+        BagError::MissingTopic {
+            path: self.path.clone(),
+            topic: topic.to_owned(),
+            found: self.seen.iter().cloned().collect::<Vec<_>>().join(", "),
+        }
+    }
+
     /// Reads one message; false at the end of the last file.
     fn read_message(&mut self) -> Result<bool, BagError> {
         loop {
-            if self.messages.is_none() {
+            if self.records.is_none() {
                 let Some(file) = self.files.pop_front() else {
                     return Ok(false);
                 };
-                let reader = File::open(&file).map_err(|source| BagError::Io {
-                    path: file.clone(),
-                    source,
-                })?;
-                let stream =
-                    mcap::io::MessageReader::new(BufReader::with_capacity(1 << 20, reader));
-                self.messages = Some((file, stream));
+                let records = Records::open(&file, None)?;
+                self.records = Some((file, records));
             }
-            let Some((file, stream)) = self.messages.as_mut() else {
+            let Some((file, records)) = self.records.as_mut() else {
                 continue;
             };
-            let message = match stream.next() {
+            let (topics, seen) = (&self.topics, &mut self.seen);
+            let decoded = records.next(|message| {
+                if !seen.contains(&message.channel.topic) {
+                    seen.insert(message.channel.topic.clone());
+                }
+                decode(&message, topics, file)
+            })?;
+            let decoded = match decoded {
                 None => {
-                    self.messages = None;
+                    self.records = None;
                     continue;
                 }
-                Some(Err(e)) => {
-                    return Err(BagError::Mcap {
-                        path: file.clone(),
-                        message: e.to_string(),
-                    });
-                }
-                Some(Ok(m)) => m,
+                Some(decoded) => decoded?,
             };
-            let topic = message.channel.topic.as_str();
-            let slot = if topic == self.topics.colour {
-                0
-            } else if topic == self.topics.depth {
-                1
-            } else if topic == self.topics.camera_info {
-                2
-            } else {
-                if !self.seen.contains(topic) {
-                    self.seen.insert(topic.to_owned());
+            let stamp = |image: &TransportImage| image.header().stamp.nanos();
+            match decoded {
+                Decoded::Colour(image) => {
+                    self.counts[0] += 1;
+                    self.pairer.push_colour(stamp(&image), image);
                 }
-                return Ok(true);
-            };
-            self.seen.insert(topic.to_owned());
-            let payload = |e| BagError::Payload {
-                path: file.clone(),
-                topic: topic.to_owned(),
-                log_time_ns: message.log_time,
-                source: e,
-            };
-            match slot {
-                2 => {
-                    let info: CameraInfo =
-                        cdr::decode(&message.data, "sensor_msgs/CameraInfo").map_err(payload)?;
-                    self.camera_info.get_or_insert(info);
+                Decoded::Depth(image) => {
+                    self.counts[1] += 1;
+                    self.pairer.push_depth(stamp(&image), image);
                 }
-                _ => match cdr::decode::<Image>(&message.data, "sensor_msgs/Image") {
-                    Ok(image) => {
-                        let stamp = image.header.stamp.nanos();
-                        if slot == 0 {
-                            self.pairer.push_colour(stamp, image);
-                        } else {
-                            self.pairer.push_depth(stamp, image);
-                        }
-                    }
-                    Err(e) => {
-                        tracing::warn!("{}: {topic}: {e}; message skipped", file.display());
-                        continue;
-                    }
-                },
+                Decoded::Info(info) => {
+                    self.counts[2] += 1;
+                    self.camera_info.get_or_insert(*info);
+                }
+                Decoded::Skipped => continue,
             }
-            self.counts[slot] += 1;
             return Ok(true);
+        }
+    }
+}
+
+/// Decodes a message of the topics read (by its schema); other topics and undecodable
+/// images (with a warning naming topic and log time) are skipped.
+fn decode(
+    message: &RecordMessage<'_>,
+    topics: &BagTopics,
+    file: &Path,
+) -> Result<Decoded, BagError> {
+    let topic = message.channel.topic.as_str();
+    let schema = message.channel.schema.as_str();
+    let payload = |source| BagError::Payload {
+        path: file.to_path_buf(),
+        topic: topic.to_owned(),
+        log_time_ns: message.log_time,
+        source,
+    };
+    let wrong = |expected| BagError::Schema {
+        path: file.to_path_buf(),
+        topic: topic.to_owned(),
+        schema: schema.to_owned(),
+        expected,
+    };
+    if topic == topics.camera_info {
+        if !matches!(
+            schema,
+            "" | "sensor_msgs/msg/CameraInfo" | "sensor_msgs/CameraInfo"
+        ) {
+            return Err(wrong("sensor_msgs/msg/CameraInfo"));
+        }
+        let info = cdr::decode(message.data, "sensor_msgs/CameraInfo").map_err(payload)?;
+        return Ok(Decoded::Info(Box::new(info)));
+    }
+    let colour = topic == topics.colour;
+    if !colour && topic != topics.depth {
+        return Ok(Decoded::Skipped);
+    }
+    let image = match schema {
+        "" | "sensor_msgs/msg/Image" | "sensor_msgs/Image" => {
+            cdr::decode::<Image>(message.data, "sensor_msgs/Image").map(TransportImage::Raw)
+        }
+        "sensor_msgs/msg/CompressedImage" | "sensor_msgs/CompressedImage" => {
+            cdr::decode::<CompressedImage>(message.data, "sensor_msgs/CompressedImage")
+                .map(TransportImage::Compressed)
+        }
+        _ => {
+            return Err(wrong(
+                "sensor_msgs/msg/Image or sensor_msgs/msg/CompressedImage",
+            ));
+        }
+    };
+    match image {
+        Ok(image) if colour => Ok(Decoded::Colour(image)),
+        Ok(image) => Ok(Decoded::Depth(image)),
+        Err(e) => {
+            tracing::warn!(
+                "{}: {topic} logged at {:.9} s: {e}; message skipped",
+                file.display(),
+                message.log_time as f64 * 1e-9
+            );
+            Ok(Decoded::Skipped)
         }
     }
 }
@@ -310,122 +435,10 @@ pub fn scan(
     let mut reader = BagReader::open(path, topics, slop_s)?;
     let mut stamps = Vec::new();
     while let Some(frame) = reader.next_frame()? {
-        stamps.push(frame.colour.header.stamp.secs());
+        stamps.push(frame.colour.header().stamp.secs());
     }
-    let info = reader.camera_info.ok_or_else(|| BagError::MissingTopic {
-        path: path.to_path_buf(),
-        topic: topics.camera_info.clone(),
-        found: reader.seen.iter().cloned().collect::<Vec<_>>().join(", "),
-    })?;
-    Ok((stamps, info))
-}
-
-/// Writes ROS 2 messages into an MCAP file (`ros2` profile).
-pub struct BagWriter {
-    path: PathBuf,
-    writer: mcap::Writer<BufWriter<File>>,
-    channels: BTreeMap<String, u16>,
-    schemas: BTreeMap<&'static str, u16>,
-    scratch: Vec<u8>,
-    sequence: u32,
-}
-
-impl BagWriter {
-    /// Creates `path` (overwritten).
-    ///
-    /// # Errors
-    /// [`BagError::Io`] / [`BagError::Mcap`].
-    pub fn create(path: &Path) -> Result<Self, BagError> {
-        let file = File::create(path).map_err(|source| BagError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let writer = mcap::WriteOptions::new()
-            .profile("ros2")
-            .library("gfsvo")
-            .compression(None)
-            .create(BufWriter::new(file))
-            .map_err(|e| mcap_error(path, e))?;
-        Ok(Self {
-            path: path.to_path_buf(),
-            writer,
-            channels: BTreeMap::new(),
-            schemas: BTreeMap::new(),
-            scratch: Vec::new(),
-            sequence: 0,
-        })
-    }
-
-    /// Writes `message` of type `schema` on `topic`, logged at `time_ns`.
-    ///
-    /// # Errors
-    /// [`BagError::Mcap`], or [`BagError::Payload`] when it cannot be encoded.
-    pub fn write<T: Serialize>(
-        &mut self,
-        topic: &str,
-        schema: &MessageSchema,
-        time_ns: u64,
-        message: &T,
-    ) -> Result<(), BagError> {
-        let channel = self.channel(topic, schema)?;
-        cdr::encode_into(message, schema.name, &mut self.scratch).map_err(|source| {
-            BagError::Payload {
-                path: self.path.clone(),
-                topic: topic.to_owned(),
-                log_time_ns: time_ns,
-                source,
-            }
-        })?;
-        self.sequence += 1;
-        let header = mcap::records::MessageHeader {
-            channel_id: channel,
-            sequence: self.sequence,
-            log_time: time_ns,
-            publish_time: time_ns,
-        };
-        self.writer
-            .write_to_known_channel(&header, &self.scratch)
-            .map_err(|e| mcap_error(&self.path, e))
-    }
-
-    fn channel(&mut self, topic: &str, schema: &MessageSchema) -> Result<u16, BagError> {
-        if let Some(&id) = self.channels.get(topic) {
-            return Ok(id);
-        }
-        let schema_id = match self.schemas.get(schema.name) {
-            Some(&id) => id,
-            None => {
-                let id = self
-                    .writer
-                    .add_schema(schema.name, "ros2msg", schema.text().as_bytes())
-                    .map_err(|e| mcap_error(&self.path, e))?;
-                self.schemas.insert(schema.name, id);
-                id
-            }
-        };
-        let id = self
-            .writer
-            .add_channel(schema_id, topic, "cdr", &BTreeMap::new())
-            .map_err(|e| mcap_error(&self.path, e))?;
-        self.channels.insert(topic.to_owned(), id);
-        Ok(id)
-    }
-
-    /// Writes the summary and closes the file.
-    ///
-    /// # Errors
-    /// [`BagError::Mcap`].
-    pub fn finish(mut self) -> Result<(), BagError> {
-        self.writer
-            .finish()
-            .map_err(|e| mcap_error(&self.path, e))?;
-        Ok(())
-    }
-}
-
-fn mcap_error(path: &Path, e: mcap::McapError) -> BagError {
-    BagError::Mcap {
-        path: path.to_path_buf(),
-        message: e.to_string(),
+    match reader.camera_info.take() {
+        Some(info) => Ok((stamps, info)),
+        None => Err(reader.missing(&topics.camera_info)),
     }
 }

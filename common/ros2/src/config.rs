@@ -16,6 +16,18 @@ pub enum WhenLost {
     Nothing,
 }
 
+/// How the camera images travel (`image_transport`'s plugins).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Transport {
+    /// `sensor_msgs/Image` on the colour and depth topics (default).
+    #[default]
+    Raw,
+    /// `sensor_msgs/CompressedImage` on `<colour_topic>/compressed` (jpeg or png) and
+    /// `<depth_topic>/compressedDepth` (png).
+    Compressed,
+}
+
 /// `[ros2]`: the ROS 2 interface of `gfsvo ros2` and of bags.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -26,6 +38,9 @@ pub struct Ros2Config {
     pub depth_topic: String,
     /// `sensor_msgs/CameraInfo` of the colour camera.
     pub camera_info_topic: String,
+    /// Raw or compressed images, live; in a bag, the topics of the other transport are
+    /// read when the bag has none of this one, and each topic's schema says how.
+    pub transport: Transport,
     /// `nav_msgs/Odometry` output.
     pub odom_topic: String,
     /// `tf2_msgs/TFMessage` output.
@@ -66,6 +81,7 @@ impl Default for Ros2Config {
             colour_topic: "/camera/color/image_raw".to_owned(),
             depth_topic: "/camera/aligned_depth_to_color/image_raw".to_owned(),
             camera_info_topic: "/camera/color/camera_info".to_owned(),
+            transport: Transport::Raw,
             odom_topic: "/odom".to_owned(),
             tf_topic: "/tf".to_owned(),
             status_topic: "/gfsvo/status".to_owned(),
@@ -84,6 +100,18 @@ impl Default for Ros2Config {
 }
 
 impl Ros2Config {
+    /// The colour and depth topics subscribed to: the raw ones, or
+    /// `<colour_topic>/compressed` and `<depth_topic>/compressedDepth`.
+    pub fn image_topics(&self) -> (String, String) {
+        match self.transport {
+            Transport::Raw => (self.colour_topic.clone(), self.depth_topic.clone()),
+            Transport::Compressed => (
+                format!("{}/compressed", self.colour_topic),
+                format!("{}/compressedDepth", self.depth_topic),
+            ),
+        }
+    }
+
     /// Checks the values a run cannot work with.
     ///
     /// # Errors

@@ -17,14 +17,21 @@
 //!   `/tf` (REP 105 `odom -> base_link` through the camera-in-base extrinsic), status.
 //! - [`diagnostics::DiagnosticsWindow`]: `/diagnostics` over the last second (rates,
 //!   latency, share tracked, restarts), on the wall clock live or the camera's in bags.
-//! - [`bag`] (feature `bag`): ROS 2 bags in MCAP, read as frames and written.
 //! - [`visualisation::Visualiser`]: the map points, lines, planes, keyframes and path
 //!   as PointCloud2 / MarkerArray / Path (`/gfsvo/*`).
+//! - [`transport`]: images as `image_transport` sends them, raw or compressed (jpeg,
+//!   png, compressedDepth png), decoded in the source stage.
+//! - [`bag`] (feature `bag`): ROS 2 bags in MCAP (zstd / lz4 chunks), read as frames
+//!   with every length checked, and written under a temporary name.
 //! - [`config::Ros2Config`]: the `[ros2]` table of a config.
 #![warn(missing_docs)]
 
 #[cfg(feature = "bag")]
 pub mod bag;
+#[cfg(feature = "bag")]
+mod bag_records;
+#[cfg(feature = "bag")]
+mod bag_writer;
 pub mod camera_info;
 pub mod cdr;
 pub mod config;
@@ -34,6 +41,7 @@ pub mod msg;
 pub mod odom;
 pub mod pairing;
 pub mod schema;
+pub mod transport;
 pub mod visualisation;
 
-pub use config::{Ros2Config, WhenLost};
+pub use config::{Ros2Config, Transport, WhenLost};

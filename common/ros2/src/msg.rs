@@ -82,6 +82,20 @@ pub struct Image {
     pub data: Vec<u8>,
 }
 
+/// `sensor_msgs/CompressedImage`, as `image_transport`'s `compressed` and
+/// `compressedDepth` plugins send it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CompressedImage {
+    /// Stamp and optical frame.
+    pub header: Header,
+    /// `jpeg`, `png`, or `<encoding>; <codec> compressed <encoding>` (colour),
+    /// `<encoding>; compressedDepth png` (depth).
+    pub format: String,
+    /// The compressed bytes (compressedDepth: a 12-byte header first).
+    #[serde(with = "serde_bytes")]
+    pub data: Vec<u8>,
+}
+
 /// `sensor_msgs/RegionOfInterest`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct RegionOfInterest {

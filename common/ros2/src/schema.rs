@@ -130,3 +130,10 @@ pub const DIAGNOSTIC_ARRAY: MessageSchema = MessageSchema {
         ("diagnostic_msgs/KeyValue", "string key\nstring value\n"),
     ],
 };
+
+/// `sensor_msgs/msg/CompressedImage`.
+pub const COMPRESSED_IMAGE: MessageSchema = MessageSchema {
+    name: "sensor_msgs/msg/CompressedImage",
+    main: "std_msgs/Header header\nstring format\nuint8[] data\n",
+    dependencies: &[HEADER, TIME],
+};

@@ -1,12 +1,13 @@
 //! The DDS side: a participant on the ROS domain as ROS 2 sets it up
 //! (`ROS_DOMAIN_ID`; `ROS_LOCALHOST_ONLY=1` or `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`
 //! keep discovery and data on 127.0.0.1), the camera subscriptions with sensor-data QoS
-//! (best effort, so reliable and best-effort publishers both match) and the output
-//! publishers (reliable).
+//! (best effort, so reliable and best-effort publishers both match) of either image
+//! transport, and the output publishers (reliable).
 
-use gfs_ros2::Ros2Config;
 use gfs_ros2::diagnostics::DiagnosticArray;
-use gfs_ros2::msg::{CameraInfo, Image, Odometry, StringMsg, TfMessage};
+use gfs_ros2::msg::{CameraInfo, CompressedImage, Image, Odometry, StringMsg, TfMessage};
+use gfs_ros2::transport::TransportImage;
+use gfs_ros2::{Ros2Config, Transport};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::qos::{History, QosProfile};
 use ros2_client::{
@@ -17,12 +18,57 @@ use std::net::Ipv4Addr;
 /// What can go wrong setting up DDS.
 pub type DdsError = Box<dyn std::error::Error + Send + Sync>;
 
+/// A camera image subscription: raw, or image_transport's compressed plugin.
+pub enum ImageSubscription {
+    /// `sensor_msgs/Image` on the topic.
+    Raw(Subscription<Image>),
+    /// `sensor_msgs/CompressedImage` on `<topic>/compressed` or `/compressedDepth`.
+    Compressed(Subscription<CompressedImage>),
+}
+
+impl ImageSubscription {
+    fn new(
+        node: &mut Node,
+        transport: Transport,
+        name: &str,
+        qos: &QosProfile,
+    ) -> Result<Self, DdsError> {
+        Ok(match transport {
+            Transport::Raw => {
+                let topic = topic(node, name, "sensor_msgs", "Image", qos)?;
+                Self::Raw(node.create_subscription(&topic, Some(qos.clone()))?)
+            }
+            Transport::Compressed => {
+                let topic = topic(node, name, "sensor_msgs", "CompressedImage", qos)?;
+                Self::Compressed(node.create_subscription(&topic, Some(qos.clone()))?)
+            }
+        })
+    }
+
+    /// The next image received, if any.
+    ///
+    /// # Errors
+    /// A message that could not be decoded, as DDS reports it.
+    pub fn take(&self) -> Result<Option<TransportImage>, String> {
+        match self {
+            Self::Raw(s) => s
+                .take()
+                .map(|m| m.map(|(image, _)| TransportImage::Raw(image)))
+                .map_err(|e| format!("{e:?}")),
+            Self::Compressed(s) => s
+                .take()
+                .map(|m| m.map(|(image, _)| TransportImage::Compressed(image)))
+                .map_err(|e| format!("{e:?}")),
+        }
+    }
+}
+
 /// The node's subscriptions and publishers.
 pub struct Endpoints {
     /// Colour images.
-    pub colour: Subscription<Image>,
+    pub colour: ImageSubscription,
     /// Depth images.
-    pub depth: Subscription<Image>,
+    pub depth: ImageSubscription,
     /// Camera info.
     pub camera_info: Subscription<CameraInfo>,
     /// `/odom`.
@@ -122,20 +168,9 @@ pub fn endpoints(config: &Ros2Config) -> Result<Endpoints, DdsError> {
     let mut node = node("gfsvo")?;
     let sensor = sensor_qos();
     let output = QosProfile::publisher_default().history(History::KeepLast { depth: 50 });
-    let colour_topic = topic(
-        &mut node,
-        &config.colour_topic,
-        "sensor_msgs",
-        "Image",
-        &sensor,
-    )?;
-    let depth_topic = topic(
-        &mut node,
-        &config.depth_topic,
-        "sensor_msgs",
-        "Image",
-        &sensor,
-    )?;
+    let (colour_topic, depth_topic) = config.image_topics();
+    let colour = ImageSubscription::new(&mut node, config.transport, &colour_topic, &sensor)?;
+    let depth = ImageSubscription::new(&mut node, config.transport, &depth_topic, &sensor)?;
     let info_topic = topic(
         &mut node,
         &config.camera_info_topic,
@@ -172,8 +207,8 @@ pub fn endpoints(config: &Ros2Config) -> Result<Endpoints, DdsError> {
         &output,
     )?;
     Ok(Endpoints {
-        colour: node.create_subscription(&colour_topic, Some(sensor.clone()))?,
-        depth: node.create_subscription(&depth_topic, Some(sensor.clone()))?,
+        colour,
+        depth,
         camera_info: node.create_subscription(&info_topic, Some(sensor))?,
         odom: node.create_publisher(&odom_topic, Some(output.clone()))?,
         tf: node.create_publisher(&tf_topic, Some(output.clone()))?,

@@ -12,9 +12,10 @@ use gfs_pipeline::wire::WirePose;
 use gfs_ros2::camera_info::{camera_from_info, cameras_differ};
 use gfs_ros2::diagnostics::DiagnosticsWindow;
 use gfs_ros2::image::{FrameConverter, Received};
-use gfs_ros2::msg::{Header, Image, Time};
+use gfs_ros2::msg::{Header, Time};
 use gfs_ros2::odom::{OdometryPublisherState, TrackedPose};
 use gfs_ros2::pairing::{Paired, Pairer};
+use gfs_ros2::transport::{TransportDecoder, TransportImage};
 use std::collections::VecDeque;
 use std::io::Write;
 use std::time::{Duration, Instant};
@@ -63,13 +64,11 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
         None => None,
     };
     let dds = endpoints(ros2)?;
-    tracing::info!(
-        "subscribed to {} and {}; next frame {next_id}",
-        ros2.colour_topic,
-        ros2.depth_topic
-    );
+    let (colour_topic, depth_topic) = ros2.image_topics();
+    tracing::info!("subscribed to {colour_topic} and {depth_topic}; next frame {next_id}");
     let mut converter = FrameConverter::new(&camera, &config.depth);
-    let mut pairer = Pairer::<Image, Image>::new(ros2.slop_s, 8);
+    let mut pairer = Pairer::<TransportImage, TransportImage>::new(ros2.slop_s, 8);
+    let mut decoders = (TransportDecoder::new(), TransportDecoder::new());
     let mut odometry = OdometryPublisherState::new(ros2);
     let mut camera_checked = false;
     let mut last_published: Option<u64> = None;
@@ -77,7 +76,7 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
     let mut stamps = VecDeque::with_capacity(STAMPS_KEPT);
     let mut next_report = Instant::now() + REPORT_EVERY;
     while !ctx.stopping() {
-        let mut busy = take_images(&dds, &mut pairer, ros2);
+        let mut busy = take_images(&dds, &mut pairer, (&colour_topic, &depth_topic));
         if !camera_checked && let Ok(Some((info, _))) = dds.camera_info.take() {
             camera_checked = true;
             match camera_from_info(&info, &ros2.camera_info_topic, config.camera.readout_s) {
@@ -96,13 +95,24 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
             busy = true;
             match decision {
                 Paired::Pair(colour, depth) => {
+                    let decoded = decoders
+                        .0
+                        .colour(&colour, &colour_topic)
+                        .and_then(|c| Ok((c, decoders.1.depth(&depth, &depth_topic)?)));
+                    let (colour, depth) = match decoded {
+                        Ok(pair) => pair,
+                        Err(e) => {
+                            tracing::warn!("{e}; frame skipped");
+                            continue;
+                        }
+                    };
                     let colour = Received {
-                        image: &colour,
-                        topic: &ros2.colour_topic,
+                        image: colour,
+                        topic: &colour_topic,
                     };
                     let depth = Received {
-                        image: &depth,
-                        topic: &ros2.depth_topic,
+                        image: depth,
+                        topic: &depth_topic,
                     };
                     match publish_pair(&publisher, &layout, &mut converter, next_id, colour, depth)?
                     {
@@ -124,25 +134,21 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
                 }
                 Paired::NotAfter { stamp, last } if last - stamp > CAMERA_RESTART_NS => {
                     tracing::warn!(
-                        "{}: the stamps went back from {} to {}: the camera restarted; \
-                         going on from there",
-                        ros2.colour_topic,
+                        "{colour_topic}: the stamps went back from {} to {}: the camera \
+                         restarted; going on from there",
                         Stamp::from_nanos(last),
                         Stamp::from_nanos(stamp)
                     );
                     pairer.restart(stamp);
                 }
                 Paired::NotAfter { stamp, last } => tracing::warn!(
-                    "{} at {}: not after the frame before it, at {}; frame skipped",
-                    ros2.colour_topic,
+                    "{colour_topic} at {}: not after the frame before it, at {}; frame skipped",
                     Stamp::from_nanos(stamp),
                     Stamp::from_nanos(last)
                 ),
                 Paired::ColourWithoutDepth(stamp) => tracing::warn!(
-                    "{} at {}: no {} image within {} s; frame skipped",
-                    ros2.colour_topic,
+                    "{colour_topic} at {}: no {depth_topic} image within {} s; frame skipped",
                     Stamp::from_nanos(stamp),
-                    ros2.depth_topic,
                     ros2.slop_s
                 ),
             }
@@ -251,32 +257,32 @@ pub fn probe_camera(
 /// Moves the images that arrived into the pairer; true when any did.
 fn take_images(
     dds: &Endpoints,
-    pairer: &mut Pairer<Image, Image>,
-    ros2: &gfs_ros2::Ros2Config,
+    pairer: &mut Pairer<TransportImage, TransportImage>,
+    (colour_topic, depth_topic): (&str, &str),
 ) -> bool {
     let mut any = false;
     loop {
         match dds.colour.take() {
-            Ok(Some((image, _))) => {
-                pairer.push_colour(image.header.stamp.nanos(), image);
+            Ok(Some(image)) => {
+                pairer.push_colour(image.header().stamp.nanos(), image);
                 any = true;
             }
             Ok(None) => break,
             Err(e) => {
-                tracing::warn!("{}: undecodable message: {e:?}", ros2.colour_topic);
+                tracing::warn!("{colour_topic}: undecodable message: {e}");
                 break;
             }
         }
     }
     loop {
         match dds.depth.take() {
-            Ok(Some((image, _))) => {
-                pairer.push_depth(image.header.stamp.nanos(), image);
+            Ok(Some(image)) => {
+                pairer.push_depth(image.header().stamp.nanos(), image);
                 any = true;
             }
             Ok(None) => break,
             Err(e) => {
-                tracing::warn!("{}: undecodable message: {e:?}", ros2.depth_topic);
+                tracing::warn!("{depth_topic}: undecodable message: {e}");
                 break;
             }
         }

@@ -1,5 +1,6 @@
 //! The source playing a ROS 2 bag (MCAP) instead of a dataset folder: colour and depth
-//! paired by stamp (`[ros2] slop_s`), converted like live ROS 2 images, paced like the
+//! paired by stamp (`[ros2] slop_s`), compressed images decoded here, converted like live
+//! ROS 2 images, paced like the
 //! folder source (lockstep: after the previous pose; realtime: at the stamps). Frame k
 //! is the k-th pair, as `gfs_ros2::bag::scan` counts them for the supervisor.
 
@@ -10,6 +11,7 @@ use crate::wire::WirePose;
 use gfs_ipc::{FrameLayout, Mode, Service, topics};
 use gfs_ros2::bag::{BagReader, BagTopics};
 use gfs_ros2::image::{FrameConverter, Received};
+use gfs_ros2::transport::TransportDecoder;
 use std::time::Instant;
 
 /// The checkpoint: the index of the next frame to publish (as the folder source).
@@ -27,6 +29,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         colour: ros2.colour_topic.clone(),
         depth: ros2.depth_topic.clone(),
         camera_info: ros2.camera_info_topic.clone(),
+        transport: ros2.transport,
     };
     let mut bag = BagReader::open(&ctx.settings.dataset, &topics, ros2.slop_s)
         .map_err(|e| StageError::Dataset(e.to_string()))?;
@@ -36,6 +39,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         message: e.to_string(),
     })?;
     let mut converter = FrameConverter::new(&camera, &config.depth);
+    let (colour_topic, depth_topic) = bag.image_topics();
+    let (colour_topic, depth_topic) = (colour_topic.to_owned(), depth_topic.to_owned());
+    let mut decoders = (TransportDecoder::new(), TransportDecoder::new());
     let publisher = ctx.publish::<u8>(topics::FRAME, layout.byte_len())?;
     let poses = ctx.subscribe::<WirePose>(topics::POSE)?;
     let state = ctx.state();
@@ -58,7 +64,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             index += 1;
             continue;
         }
-        let stamp = frame.colour.header.stamp.secs();
+        let stamp = frame.colour.header().stamp.secs();
         if ctx.mode() == Mode::Realtime {
             let first = *first.get_or_insert((index, stamp));
             let due = match ctx.settings.max_rate {
@@ -67,18 +73,28 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             };
             pace(ctx, clock, due);
         }
-        let colour = Received {
-            image: &frame.colour,
-            topic: &topics.colour,
-        };
-        let depth = Received {
-            image: &frame.depth,
-            topic: &topics.depth,
-        };
+        let decoded = decoders
+            .0
+            .colour(&frame.colour, &colour_topic)
+            .and_then(|c| Ok((c, decoders.1.depth(&frame.depth, &depth_topic)?)));
         let converter = std::cell::RefCell::new(&mut converter);
         let publish = || -> Result<(), StageError> {
             let mut converter = converter.borrow_mut();
-            match publish_pair(&publisher, &layout, &mut converter, index, colour, depth)? {
+            let converted = match &decoded {
+                Ok((colour, depth)) => {
+                    let colour = Received {
+                        image: colour,
+                        topic: &colour_topic,
+                    };
+                    let depth = Received {
+                        image: depth,
+                        topic: &depth_topic,
+                    };
+                    publish_pair(&publisher, &layout, &mut converter, index, colour, depth)?
+                }
+                Err(e) => Err(e.clone()),
+            };
+            match converted {
                 Ok(()) => Ok(()),
                 Err(e) => {
                     tracing::warn!("source: frame {index}: {e}; publishing a blank frame");

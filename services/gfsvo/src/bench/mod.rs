@@ -1,7 +1,9 @@
 //! `gfsvo bench STAGE DATASET`: per-step timings of one front-end stage over real frames,
 //! single-threaded, printed as medians / p90 (and as one JSON object with `--json`);
-//! `bench transport` and `bench latency` time the pipeline's plumbing and whole.
+//! `bench transport` and `bench latency` time the pipeline's plumbing and whole;
+//! `bench bag` what playing a ROS 2 bag costs.
 
+mod bag;
 mod latency;
 mod lines;
 mod planes;
@@ -22,6 +24,9 @@ pub enum BenchCommand {
     Lines(BenchArgs),
     /// Planes: pixel normals, BFS plane extraction, Manhattan axes.
     Planes(BenchArgs),
+    /// Playing a ROS 2 bag (BAG in place of DATASET): reading with chunk decompression,
+    /// decoding compressed images, converting to gray and metres, per frame.
+    Bag(BenchArgs),
     /// Transport latency of a 640x480 RGB-D frame between two processes over iceoryx2
     /// (median / p90 / p99 / max in µs); needs no dataset.
     Transport(transport::TransportArgs),
@@ -59,6 +64,7 @@ pub fn run(command: &BenchCommand) -> CliResult {
         BenchCommand::Points(args) => points::run(args),
         BenchCommand::Lines(args) => lines::run(args),
         BenchCommand::Planes(args) => planes::run(args),
+        BenchCommand::Bag(args) => bag::run(args),
         BenchCommand::Transport(args) => transport::run(args),
         BenchCommand::Latency(args) => latency::run(args),
     }

@@ -3,14 +3,17 @@
 //! that the ROS 2 path can be tried on any data at hand (`gfsvo run OUT`, `ros2 bag
 //! play OUT`). Colour stays as recorded (rgb8, distorted; the CameraInfo carries the
 //! distortion); depth is 32FC1 metres (exact) or, with `--depth-mm`, 16UC1 millimetres
-//! (REP 118), stamped like the colour image as aligned-depth drivers do.
+//! (REP 118), stamped like the colour image as aligned-depth drivers do. Chunks are
+//! zstd-compressed as `ros2 bag record` writes them (`--mcap-compression`). The bag is
+//! written under `OUT.partial` and renamed when complete; a failed conversion leaves no
+//! bag behind, and an existing OUT is never replaced.
 
 use super::run::progress_bar;
 use crate::CliResult;
 use crate::config::Config;
 use gfs_core::camera::{Camera, Distortion};
 use gfs_dataset::Sequence;
-use gfs_ros2::bag::BagWriter;
+use gfs_ros2::bag::{BagWriter, Compression};
 use gfs_ros2::camera_info::info_from_camera;
 use gfs_ros2::msg::{Header, Image, Time};
 use gfs_ros2::schema;
@@ -32,13 +35,54 @@ pub struct ConvertArgs {
     /// Convert only the first N frames.
     #[arg(long)]
     pub frames: Option<usize>,
+    /// Chunk compression: none, lz4 or zstd (as `ros2 bag record` writes).
+    #[arg(long, default_value = "zstd")]
+    pub mcap_compression: Compression,
 }
 
 /// The optical frame the images are in.
 const OPTICAL_FRAME: &str = "camera_color_optical_frame";
 
-/// Writes the bag.
+/// Writes the bag under a temporary name, renamed to OUT once complete.
 pub fn run(args: &ConvertArgs) -> CliResult {
+    if args.out.symlink_metadata().is_ok() {
+        return Err(format!(
+            "{}: exists; convert writes a new bag (remove it or choose another name)",
+            args.out.display()
+        )
+        .into());
+    }
+    let partial = partial_path(&args.out);
+    if partial.symlink_metadata().is_ok() {
+        return Err(format!(
+            "{}: exists (left by a conversion that did not finish?); remove it first",
+            partial.display()
+        )
+        .into());
+    }
+    let total = match convert(args, &partial) {
+        Ok(total) => total,
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&partial);
+            let _ = std::fs::remove_file(&partial);
+            return Err(e);
+        }
+    };
+    std::fs::rename(&partial, &args.out)
+        .map_err(|e| format!("{} -> {}: {e}", partial.display(), args.out.display()))?;
+    println!("{total} frames written to {}", args.out.display());
+    Ok(())
+}
+
+/// `OUT.partial`: where the bag is written until it is complete.
+fn partial_path(out: &Path) -> PathBuf {
+    let mut name = out.file_name().unwrap_or_default().to_os_string();
+    name.push(".partial");
+    out.with_file_name(name)
+}
+
+/// Writes the bag of `args` at `partial`; the number of frames.
+fn convert(args: &ConvertArgs, partial: &Path) -> CliResult<usize> {
     let config = Config::load(args.config.as_deref(), &args.dataset)?;
     let camera = config.camera()?;
     // Without distortion the reader hands the colour over as recorded.
@@ -50,9 +94,9 @@ pub fn run(args: &ConvertArgs) -> CliResult {
     let total = args
         .frames
         .map_or(sequence.len(), |n| n.min(sequence.len()));
-    let (dir, file) = bag_paths(&args.out)?;
+    let (dir, file) = bag_paths(&args.out, partial)?;
     let ros2 = &config.ros2;
-    let mut writer = BagWriter::create(&file)?;
+    let mut writer = BagWriter::create(&file, args.mcap_compression)?;
     let bar = progress_bar(total as u64, false);
     let mut colour = Image::default();
     let mut depth = Image::default();
@@ -108,20 +152,24 @@ pub fn run(args: &ConvertArgs) -> CliResult {
     if let Some(dir) = dir {
         write_metadata(&dir, &file, total, first_last, ros2)?;
     }
-    println!("{} frames written to {}", total, args.out.display());
-    Ok(())
+    Ok(total)
 }
 
-/// The bag folder (None for a bare .mcap) and the .mcap file.
-fn bag_paths(out: &Path) -> CliResult<(Option<PathBuf>, PathBuf)> {
+/// The bag folder (None for a bare .mcap) and the .mcap file, written at `partial`
+/// until renamed to `out` (the .mcap in a folder is named after `out`, as rosbag2 names
+/// it).
+fn bag_paths(out: &Path, partial: &Path) -> CliResult<(Option<PathBuf>, PathBuf)> {
     if out.extension().is_some_and(|e| e == "mcap") {
-        return Ok((None, out.to_path_buf()));
+        return Ok((None, partial.to_path_buf()));
     }
-    std::fs::create_dir_all(out)?;
+    std::fs::create_dir(partial).map_err(|e| format!("{}: {e}", partial.display()))?;
     let name = out
         .file_name()
         .map_or_else(|| "bag".to_owned(), |n| n.to_string_lossy().into_owned());
-    Ok((Some(out.to_path_buf()), out.join(format!("{name}_0.mcap"))))
+    Ok((
+        Some(partial.to_path_buf()),
+        partial.join(format!("{name}_0.mcap")),
+    ))
 }
 
 /// `metadata.yaml` of a rosbag2 folder (format version 5, read by `ros2 bag` from Humble

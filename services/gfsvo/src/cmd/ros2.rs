@@ -11,6 +11,7 @@ use gfs_core::camera::{Camera, CameraConfig};
 use gfs_core::stamp::Stamp;
 use gfs_ipc::{Mode, RunId};
 use gfs_pipeline::stages::StageSettings;
+use gfs_ros2::bag::Compression;
 use gfs_ros2::camera_info::cameras_differ;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -63,6 +64,10 @@ pub struct Ros2Args {
     /// Also write /odom, /tf and the status into this MCAP file at the end.
     #[arg(long)]
     pub mcap: Option<PathBuf>,
+    /// Chunk compression of the --mcap recording: none, lz4 or zstd (as `ros2 bag
+    /// record` writes).
+    #[arg(long, default_value = "zstd")]
+    pub mcap_compression: Compression,
     /// How long to wait for the driver's CameraInfo before starting (its camera wins
     /// over the config's, with a warning); 0: track with the config's camera.
     #[arg(long, default_value_t = 10.0)]
@@ -155,7 +160,14 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
             stamps: &stamps,
             scenes: &scenes,
         };
-        record_mcap(path, &config, &poses, &outcome.covariances, &details)?;
+        record_mcap(
+            path,
+            &config,
+            &poses,
+            &outcome.covariances,
+            &details,
+            args.mcap_compression,
+        )?;
     }
     let mut counts = BTreeMap::<&str, usize>::new();
     for pose in &poses {

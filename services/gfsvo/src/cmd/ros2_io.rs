@@ -11,7 +11,7 @@ use gfs_core::scene::Scene;
 use gfs_core::stamp::Stamp;
 use gfs_ipc::Profile;
 use gfs_odometry::FramePose;
-use gfs_ros2::bag::{BagTopics, BagWriter, scan};
+use gfs_ros2::bag::{BagTopics, BagWriter, Compression, scan};
 use gfs_ros2::camera_info::{camera_from_info, cameras_differ};
 use gfs_ros2::diagnostics::{DiagnosticsWindow, WINDOW_NS};
 use gfs_ros2::msg::{Header, Time};
@@ -28,6 +28,7 @@ pub fn bag_topics(config: &Config) -> BagTopics {
         colour: config.ros2.colour_topic.clone(),
         depth: config.ros2.depth_topic.clone(),
         camera_info: config.ros2.camera_info_topic.clone(),
+        transport: config.ros2.transport,
     }
 }
 
@@ -170,12 +171,13 @@ pub fn record_mcap(
     poses: &[FramePose],
     covariances: &Covariances,
     details: &RunDetails<'_>,
+    compression: Compression,
 ) -> CliResult {
     let ros2 = &config.ros2;
     let shown = &ros2.visualisation;
     let visualiser = Visualiser::new(ros2);
     let mut state = OdometryPublisherState::new(ros2);
-    let mut writer = BagWriter::create(path)?;
+    let mut writer = BagWriter::create(path, compression)?;
     let mut diagnostics = DiagnosticsWindow::new();
     let mut next_report = None;
     let mut scenes = details.scenes.iter().peekable();

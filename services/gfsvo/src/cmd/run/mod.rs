@@ -18,6 +18,7 @@ use gfs_dataset::{Covariances, EVO_MAX_DIFF_S, Evaluation, Sequence, Trajectory,
 use gfs_ipc::{Mode, RunId};
 use gfs_odometry::{FramePose, TrackingStatus};
 use gfs_pipeline::stages::StageSettings;
+use gfs_ros2::bag::Compression;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -82,6 +83,10 @@ pub struct RunArgs {
     /// by height), lines, planes and keyframe path (and ground truth when there is one).
     #[arg(long)]
     pub map_png: Option<PathBuf>,
+    /// Chunk compression of the --mcap recording: none, lz4 or zstd (as `ros2 bag
+    /// record` writes).
+    #[arg(long, default_value = "zstd")]
+    pub mcap_compression: Compression,
 }
 
 /// Per-stage timings of a run, as printed.
@@ -264,7 +269,14 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             stamps: &[],
             scenes: &keyframe_scenes,
         };
-        super::ros2_io::record_mcap(path, &config, &odometry, &covariances, &details)?;
+        super::ros2_io::record_mcap(
+            path,
+            &config,
+            &odometry,
+            &covariances,
+            &details,
+            args.mcap_compression,
+        )?;
     }
     let estimated = checks::tracked_trajectory(&poses, &args.out)?;
     let evaluation = match &ground_truth {
