@@ -58,7 +58,8 @@ def messages():
                                binning_x=0, binning_y=0,
                                roi=T["RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0,
                                                          do_rectify=False))
-        ns_c, ns_d = int(round(t_rgb * 1e9)), int(round(t_depth * 1e9))
+        (sec_c, nsec_c), (sec_d, nsec_d) = tum.stamp(t_rgb), tum.stamp(t_depth)
+        ns_c, ns_d = sec_c * 1_000_000_000 + nsec_c, sec_d * 1_000_000_000 + nsec_d
         yield INFO, "CameraInfo", ns_c, info
         mm = np.round(raw / tum.TUM_DEPTH_SCALE * 1000.0).astype("<u2")
         if kind in ("png", "jpeg"):
