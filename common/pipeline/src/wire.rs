@@ -3,9 +3,10 @@
 //! stable iceoryx2 type name that both ends agree on.
 
 use gfs_core::ids::{FrameId, KeyFrameId};
+use gfs_core::scene::{FrameLine, FramePoint, FrameView};
 use gfs_ipc::ZeroCopySend;
 use gfs_lines::{DetectedLine, Line3, Segment};
-use gfs_odometry::{FrameAnchor, FramePose, TrackingStatus};
+use gfs_odometry::{FrameAnchor, FrameMatches, FramePose, TrackingStatus};
 use gfs_planes::ManhattanAxes;
 use gfs_points::{Descriptor, KeyPoint};
 use nalgebra::{Isometry3, Matrix3, Matrix6, Quaternion, Rotation3, Translation3, UnitQuaternion};
@@ -309,6 +310,91 @@ impl WirePose {
     /// The predicted rotation, if the tracker knew one.
     pub fn predicted_rotation(&self) -> Option<Rotation3<f64>> {
         unit_quaternion(&self.predicted_rotation).map(|q| q.to_rotation_matrix())
+    }
+}
+
+/// A matched keypoint or line of a tracked frame (`tracked` topic: a slice per frame,
+/// the inliers first), for viewers; a point has `end == start`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
+#[type_name("gfsvo::WireTrackedFeature")]
+#[repr(C)]
+pub struct WireTrackedFeature {
+    /// Keypoint, or line start: undistorted pixel (u, v).
+    pub start: [f32; 2],
+    /// Line end (the keypoint again for a point).
+    pub end: [f32; 2],
+    /// Keypoint depth, metres (0 = none or a line).
+    pub depth: f32,
+    /// [`WireTrackedFeature::POINT_INLIER`] and friends.
+    pub kind: u32,
+}
+
+impl WireTrackedFeature {
+    /// A keypoint, inlier of the frame's pose.
+    pub const POINT_INLIER: u32 = 0;
+    /// A keypoint the pose optimisation rejected.
+    pub const POINT_OUTLIER: u32 = 1;
+    /// A line, inlier of the frame's pose.
+    pub const LINE_INLIER: u32 = 2;
+    /// A line the pose optimisation rejected.
+    pub const LINE_OUTLIER: u32 = 3;
+
+    /// The matched keypoints and lines of `matches`, inliers first, into `out`.
+    pub fn fill(matches: &FrameMatches<'_>, out: &mut Vec<Self>) {
+        out.clear();
+        let features = &matches.frame.features;
+        for (i, inlier) in matches.points() {
+            if let Some(kp) = features.keypoints.get(i) {
+                out.push(Self {
+                    start: [kp.u, kp.v],
+                    end: [kp.u, kp.v],
+                    depth: kp.depth,
+                    kind: if inlier {
+                        Self::POINT_INLIER
+                    } else {
+                        Self::POINT_OUTLIER
+                    },
+                });
+            }
+        }
+        for (j, inlier) in matches.lines() {
+            if let Some(line) = features.lines.get(j) {
+                out.push(Self {
+                    start: line.segment.start,
+                    end: line.segment.end,
+                    depth: 0.0,
+                    kind: if inlier {
+                        Self::LINE_INLIER
+                    } else {
+                        Self::LINE_OUTLIER
+                    },
+                });
+            }
+        }
+    }
+
+    /// The frame view of a `tracked` slice; features with a non-finite coordinate or an
+    /// unknown kind (a corrupt message) are left out.
+    pub fn view(wire: &[Self], out: &mut FrameView) {
+        out.points.clear();
+        out.lines.clear();
+        for f in wire {
+            if !f.start.iter().chain(&f.end).all(|v| v.is_finite()) {
+                continue;
+            }
+            match f.kind {
+                Self::POINT_INLIER | Self::POINT_OUTLIER => out.points.push(FramePoint {
+                    uv: f.start,
+                    depth: if f.depth.is_finite() { f.depth } else { 0.0 },
+                    inlier: f.kind == Self::POINT_INLIER,
+                }),
+                Self::LINE_INLIER | Self::LINE_OUTLIER => out.lines.push(FrameLine {
+                    ends: [f.start, f.end],
+                    inlier: f.kind == Self::LINE_INLIER,
+                }),
+                _ => {}
+            }
+        }
     }
 }
 

@@ -7,7 +7,7 @@ use crate::map::Map;
 use crate::tracking::matching::ScalePyramid;
 use crate::tracking::observation::{KeypointMeasurement, LINE_INV_SIGMA2, observed_line};
 use gfs_core::camera::PinholeCamera;
-use gfs_core::ids::{MapLineId, MapPointId};
+use gfs_core::ids::{FrameId, MapLineId, MapPointId};
 use gfs_optim::residuals::PosePrior;
 use gfs_optim::{
     DepthObservation, LineObservation, PhotometricObservation, PhotometricScratch, PhotometricTerm,
@@ -59,6 +59,9 @@ pub struct PoseSolver {
     photometric_level: IntensityLevel,
     prior: Option<PosePrior>,
     result: PoseResult,
+    /// The frame of the last solve: what `point_index` / `line_index` and the result's
+    /// inlier flags refer to.
+    solved: Option<FrameId>,
 }
 
 impl PoseSolver {
@@ -79,6 +82,7 @@ impl PoseSolver {
             photometric_level: IntensityLevel::Cells,
             prior: None,
             result: PoseResult::default(),
+            solved: None,
         }
     }
 
@@ -142,6 +146,7 @@ impl PoseSolver {
         line_ids: &mut [Option<MapLineId>],
     ) -> Inliers {
         self.result.covariance = None;
+        self.solved = Some(frame.id);
         self.points.clear();
         self.point_index.clear();
         for (i, id) in point_ids.iter().enumerate() {
@@ -225,10 +230,49 @@ impl PoseSolver {
         }
     }
 
+    /// The keypoints of `frame` that its last solve matched and rejected as outliers
+    /// (none when the last solve was of another frame, or had no observation).
+    pub fn rejected_points(&self, frame: FrameId) -> impl Iterator<Item = usize> + '_ {
+        rejected(
+            self.solved == Some(frame),
+            &self.point_index,
+            &self.result.point_inliers,
+        )
+    }
+
+    /// The lines of `frame` that its last solve matched and rejected, as
+    /// [`Self::rejected_points`].
+    pub fn rejected_lines(&self, frame: FrameId) -> impl Iterator<Item = usize> + '_ {
+        rejected(
+            self.solved == Some(frame),
+            &self.line_index,
+            &self.result.line_inliers,
+        )
+    }
+
     /// The covariance of the last solved pose ([`gfs_optim::PoseResult::covariance`]).
     pub fn covariance(&self) -> Option<Matrix6<f64>> {
         self.result.covariance
     }
+}
+
+/// The features `index` names whose `inliers` flag is false (`inliers` is the last
+/// optimisation's, possibly of fewer observations when it returned early).
+fn rejected<'a>(
+    current: bool,
+    index: &'a [usize],
+    inliers: &'a [bool],
+) -> impl Iterator<Item = usize> + 'a {
+    let n = if current {
+        index.len().min(inliers.len())
+    } else {
+        0
+    };
+    index[..n]
+        .iter()
+        .zip(&inliers[..n])
+        .filter(|(_, inlier)| !**inlier)
+        .map(|(i, _)| *i)
 }
 
 #[cfg(test)]

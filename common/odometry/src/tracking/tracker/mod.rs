@@ -14,7 +14,7 @@ mod planes;
 mod strategies;
 mod tracked_frame;
 
-pub use tracked_frame::TrackedFrame;
+pub use tracked_frame::{FrameMatches, TrackedFrame};
 
 use crate::config::TrackingConfig;
 use crate::depth::alignment::DepthAssociator;
@@ -172,6 +172,14 @@ impl Tracker {
     /// The covariance of the last pose optimisation (of the frame just tracked).
     pub fn pose_covariance(&self) -> Option<nalgebra::Matrix6<f64>> {
         self.solver.covariance()
+    }
+
+    /// The last frame's matches, inliers and outliers (`None` before the first frame).
+    pub fn last_matches(&self) -> Option<FrameMatches<'_>> {
+        self.last.as_ref().map(|frame| FrameMatches {
+            frame,
+            solver: &self.solver,
+        })
     }
 
     /// The pose predicted for the next frame, if any frame was seen.

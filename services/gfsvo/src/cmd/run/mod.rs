@@ -9,6 +9,7 @@ pub mod checks;
 mod inline;
 mod map_png;
 
+use super::frame_visuals::{ColourFrames, FrameVisuals};
 use crate::CliResult;
 use crate::bench::stats::Summary;
 use crate::config::Config;
@@ -131,6 +132,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let mut tracker_map = None;
     let mut scene = None;
     let mut keyframe_scenes = Vec::new();
+    let mut frame_views = pipeline::FrameViews::new();
     let (poses, odometry, loops, processed, timings, keyframes, restarts, covariances) = if args
         .mode
         == RunMode::Inline
@@ -234,6 +236,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
                 .map(gfs_odometry::map::Map::scene);
         }
         keyframe_scenes = keyframe_stamps(outcome.scenes, timestamps);
+        frame_views = outcome.views;
         let timings = Timings::Pipeline(outcome.profile.summary());
         if !outcome.leftovers.is_empty() {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
@@ -268,13 +271,19 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             restarts: &stage_restarts,
             stamps: &[],
             scenes: &keyframe_scenes,
+            frames: Some(recorded_frames(
+                &config,
+                &dataset,
+                sequence.as_ref(),
+                &frame_views,
+            )?),
         };
         super::ros2_io::record_mcap(
             path,
             &config,
             &odometry,
             &covariances,
-            &details,
+            details,
             args.mcap_compression,
         )?;
     }
@@ -389,6 +398,22 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
     }
     Ok(())
+}
+
+/// The per-frame topics of the recording, with the colour images read again from the
+/// folder or bag.
+fn recorded_frames<'a>(
+    config: &'a Config,
+    dataset: &Path,
+    sequence: Option<&'a Sequence>,
+    views: &'a pipeline::FrameViews,
+) -> CliResult<FrameVisuals<'a>> {
+    let colours = match sequence {
+        _ if !config.ros2.visualisation.tracking_image => ColourFrames::None,
+        Some(sequence) => ColourFrames::Folder(sequence),
+        None => ColourFrames::bag(dataset, config)?,
+    };
+    FrameVisuals::new(config, views, colours)
 }
 
 /// The scenes of the keyframes by their frames' stamps (a frame id beyond the stamps,
