@@ -520,6 +520,69 @@ mod tests {
     }
 
     #[test]
+    fn tracked_features_read_back_as_a_frame_view_without_corrupt_entries() {
+        let feature = |start: [f32; 2], end: [f32; 2], depth: f32, kind: u32| WireTrackedFeature {
+            start,
+            end,
+            depth,
+            kind,
+        };
+        let wire = [
+            feature(
+                [10.0, 20.0],
+                [10.0, 20.0],
+                1.5,
+                WireTrackedFeature::POINT_INLIER,
+            ),
+            feature(
+                [30.0, 40.0],
+                [30.0, 40.0],
+                f32::NAN,
+                WireTrackedFeature::POINT_OUTLIER,
+            ),
+            feature(
+                [1.0, 2.0],
+                [50.0, 60.0],
+                0.0,
+                WireTrackedFeature::LINE_OUTLIER,
+            ),
+            feature(
+                [f32::NAN, 2.0],
+                [5.0, 6.0],
+                0.0,
+                WireTrackedFeature::LINE_INLIER,
+            ),
+            feature([1.0, 2.0], [5.0, 6.0], 0.0, 9),
+        ];
+        let mut view = FrameView::default();
+        WireTrackedFeature::view(&wire, &mut view);
+        assert_eq!(
+            view.points,
+            [
+                FramePoint {
+                    uv: [10.0, 20.0],
+                    depth: 1.5,
+                    inlier: true
+                },
+                FramePoint {
+                    uv: [30.0, 40.0],
+                    depth: 0.0,
+                    inlier: false
+                }
+            ]
+        );
+        assert_eq!(
+            view.lines,
+            [FrameLine {
+                ends: [[1.0, 2.0], [50.0, 60.0]],
+                inlier: false
+            }]
+        );
+        // deploy/iceoryx2.toml documents the layout for other languages.
+        assert_eq!(std::mem::size_of::<WireTrackedFeature>(), 24);
+    }
+
+    #[test]
     fn corrupt_payloads_are_refused() {
         let mut w = WirePose {
             status: 9,

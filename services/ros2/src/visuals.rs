@@ -2,8 +2,11 @@
 //! of the stage with its own DDS participant reads what the tracker and the mapper
 //! publish (poses, each frame's matches, the map after each keyframe) and publishes the
 //! landmarks, structure, keyframes, path, frame points and tracking image. The stage's
-//! loop only hands it each frame's id and stamp, and the colour image of the frames due
-//! for a tracking image (a copy at `tracking_image_rate_hz`); it never waits on it.
+//! loop only hands it each frame's id and stamp, and a copy of the colour image of the
+//! frames due for a tracking image; it never waits on it. A frame is due once its stamp
+//! reaches the last tracking image's plus `1 / tracking_image_rate_hz`: in realtime the
+//! tracker may skip a frame, whose image is then never drawn, so the frames after it
+//! stay due until one is.
 
 use crate::dds::{DdsError, node, topic};
 use gfs_core::RgbImage;
@@ -29,7 +32,7 @@ use ros2_client::Publisher;
 use ros2_client::qos::{History, QosProfile};
 use std::collections::BTreeMap;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -38,6 +41,9 @@ use std::time::Duration;
 const QUEUE: usize = 64;
 /// Frames whose stamp, status and colour the thread keeps while their matches come.
 const FRAMES_KEPT: usize = 64;
+/// Messages each publisher keeps for a reliable viewer that needs them again.
+const FRAMES_KEPT_BY_DDS: usize = 30;
+const IMAGES_KEPT_BY_DDS: usize = 4;
 /// How long the thread sleeps on the pose topic when nothing came.
 const IDLE: Duration = Duration::from_millis(5);
 
@@ -53,7 +59,10 @@ struct FrameIn {
 /// The stage loop's end: hands frames to the thread, stops it when dropped.
 pub struct Visuals {
     frames: SyncSender<FrameIn>,
-    gate: Option<RateGate>,
+    /// The stamp (ns) from which a frame is due for a tracking image; `i64::MAX`: never.
+    next_image_ns: Arc<AtomicI64>,
+    /// The tracking image's period, ns.
+    period_ns: i64,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
 }
@@ -82,6 +91,12 @@ impl Visuals {
         let converter = FrameConverter::new(&camera, &config.depth);
         let (sender, receiver) = sync_channel(QUEUE);
         let stop = Arc::new(AtomicBool::new(false));
+        let next_image_ns = Arc::new(AtomicI64::new(if shown.tracking_image {
+            i64::MIN
+        } else {
+            i64::MAX
+        }));
+        let period_ns = (1e9 / shown.tracking_image_rate_hz).round() as i64;
         let state = Thread {
             run: run.clone(),
             mode,
@@ -90,6 +105,8 @@ impl Visuals {
             camera: camera.pinhole,
             converter,
             frames: receiver,
+            next_image_ns: Arc::clone(&next_image_ns),
+            period_ns,
             stop: Arc::clone(&stop),
         };
         let thread = std::thread::Builder::new()
@@ -101,9 +118,8 @@ impl Visuals {
             })?;
         Ok(Some(Self {
             frames: sender,
-            gate: shown
-                .tracking_image
-                .then(|| RateGate::new(shown.tracking_image_rate_hz)),
+            next_image_ns,
+            period_ns,
             stop,
             thread: Some(thread),
         }))
@@ -111,7 +127,10 @@ impl Visuals {
 
     /// Frame `id`, published by the stage with its `colour` image stamped `stamp`.
     pub fn frame(&mut self, id: u64, stamp: Stamp, colour: &Image) {
-        let due = self.gate.as_mut().is_some_and(|g| g.due(stamp.secs()));
+        let next = self.next_image_ns.load(Ordering::Relaxed);
+        let ns = stamp.nanos();
+        // A stamp far before the next due one is a camera that restarted its clock.
+        let due = next != i64::MAX && (ns >= next || ns < next.saturating_sub(2 * self.period_ns));
         let frame = FrameIn {
             id,
             stamp,
@@ -158,12 +177,17 @@ impl Publishers {
     fn new(ros2: &Ros2Config) -> Result<Self, DdsError> {
         let shown = &ros2.visualisation;
         let mut node = node("gfsvo_visualisation")?;
-        let qos = QosProfile::publisher_default().history(History::KeepLast { depth: 2 });
+        // Reliable, as RViz subscribes; a second of frames kept for a slow viewer's
+        // repairs (a few images).
+        let qos = |depth| QosProfile::publisher_default().history(History::KeepLast { depth });
         macro_rules! publisher {
             ($on:expr, $name:expr, $pkg:literal, $ty:literal) => {
+                publisher!($on, $name, $pkg, $ty, FRAMES_KEPT_BY_DDS)
+            };
+            ($on:expr, $name:expr, $pkg:literal, $ty:literal, $depth:expr) => {
                 if $on {
-                    let t = topic(&mut node, $name, $pkg, $ty, &qos)?;
-                    Some(node.create_publisher(&t, Some(qos.clone()))?)
+                    let t = topic(&mut node, $name, $pkg, $ty, &qos($depth))?;
+                    Some(node.create_publisher(&t, Some(qos($depth)))?)
                 } else {
                     None
                 }
@@ -196,13 +220,15 @@ impl Publishers {
                 shown.tracking_image && raw,
                 &image_topic,
                 "sensor_msgs",
-                "Image"
+                "Image",
+                IMAGES_KEPT_BY_DDS
             ),
             compressed: publisher!(
                 shown.tracking_image && !raw,
                 &image_topic,
                 "sensor_msgs",
-                "CompressedImage"
+                "CompressedImage",
+                IMAGES_KEPT_BY_DDS
             ),
             _node: node,
         })
@@ -226,6 +252,8 @@ struct Thread {
     camera: gfs_core::camera::PinholeCamera,
     converter: FrameConverter,
     frames: Receiver<FrameIn>,
+    next_image_ns: Arc<AtomicI64>,
+    period_ns: i64,
     stop: Arc<AtomicBool>,
 }
 
@@ -326,7 +354,14 @@ impl Thread {
                         .frame_points(&view, &self.camera, header.clone());
                     send(&out.frame_points, cloud, FRAME_POINTS_TOPIC);
                 }
-                if let Some(colour) = state.colour.take() {
+                let stamp_ns = state.stamp.map_or(i64::MIN, Stamp::nanos);
+                // The frames copied while the image of an earlier one was on its way are
+                // not due any more.
+                let next = self.next_image_ns.load(Ordering::Relaxed);
+                let due = stamp_ns >= next || stamp_ns < next.saturating_sub(2 * self.period_ns);
+                if let Some(colour) = state.colour.take().filter(|_| due) {
+                    self.next_image_ns
+                        .store(stamp_ns.saturating_add(self.period_ns), Ordering::Relaxed);
                     let status = state.status.unwrap_or("unknown");
                     match self.draw(&colour, &view, (id, status, keyframes), &mut image) {
                         Ok(()) => match tracking_image(&image, header, shown.tracking_image_format)

@@ -307,6 +307,11 @@ mod tests {
         assert_eq!(point_ids[0], None, "the outlier is unlinked");
         assert_eq!((inliers.points, inliers.lines, inliers.depth), (149, 10, 0));
         assert_eq!(inliers.total(), 159);
+        // What a viewer is told: keypoint 0 rejected, no line; nothing of another frame.
+        let rejected: Vec<usize> = solver.rejected_points(frame.id).collect();
+        assert_eq!(rejected, [0]);
+        assert_eq!(solver.rejected_lines(frame.id).count(), 0);
+        assert_eq!(solver.rejected_points(FrameId(frame.id.0 + 1)).count(), 0);
     }
 
     #[test]
