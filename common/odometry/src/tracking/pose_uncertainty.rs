@@ -75,15 +75,8 @@ pub struct PoseJitter {
     short: RunningCovariance,
 }
 
-/// What a new pose adds to the chain.
-enum Sample {
-    /// A per-pose covariance sample.
-    Jitter(Matrix6<f64>),
-    /// Too few poses before it for a sample.
-    None,
-    /// A gap or a step back in time: the chain starts again at the new pose.
-    Break,
-}
+/// A gap or a step back in time before a pose: the chain starts again at it.
+struct Gap;
 
 impl PoseJitter {
     /// The covariance of the jitter with the sample of the frame at `camera_from_world`,
@@ -94,11 +87,11 @@ impl PoseJitter {
         timestamp: f64,
     ) -> Matrix6<f64> {
         match self.sample(camera_from_world, timestamp) {
-            Sample::Jitter(sample) => {
+            Ok(Some(sample)) => {
                 self.long.added(LONG_FRAMES, &sample).mean()
                     + self.short.added(SHORT_FRAMES, &sample).mean()
             }
-            Sample::None | Sample::Break => self.learnt(),
+            Ok(None) | Err(Gap) => self.learnt(),
         }
     }
 
@@ -115,12 +108,12 @@ impl PoseJitter {
             return;
         }
         match self.sample(camera_from_world, timestamp) {
-            Sample::Jitter(sample) => {
+            Ok(Some(sample)) => {
                 self.long = self.long.added(LONG_FRAMES, &sample);
                 self.short = self.short.added(SHORT_FRAMES, &sample);
             }
-            Sample::Break => self.chain.clear(),
-            Sample::None => {}
+            Ok(None) => {}
+            Err(Gap) => self.chain.clear(),
         }
         if self.chain.len() == 2 {
             self.chain.remove(0);
@@ -134,28 +127,33 @@ impl PoseJitter {
     /// errors of covariance `C` has the covariance `(1 + (1 + r)^2 + r^2) C`. Before
     /// anything is learnt, a pose after a single one gives its step as the departure
     /// (from standing still; two poses' errors): cautious while the camera moves.
-    fn sample(&self, camera_from_world: &Isometry3<f64>, timestamp: f64) -> Sample {
+    /// `None` with too few poses before it.
+    fn sample(
+        &self,
+        camera_from_world: &Isometry3<f64>,
+        timestamp: f64,
+    ) -> Result<Option<Matrix6<f64>>, Gap> {
         match self.chain[..] {
             [(older, t0), (last, t1)] => {
                 let (dt1, dt2) = (t1 - t0, timestamp - t1);
                 if dt1 <= 0.0 || dt2 <= 0.0 || dt2 > MAX_STEP_RATIO * dt1 {
-                    return Sample::Break;
+                    return Err(Gap);
                 }
                 let r = dt2 / dt1;
                 let departure = se3::log(&(camera_from_world * last.inverse()))
                     + se3::log(&(older * last.inverse())) * r;
-                Sample::Jitter(
+                Ok(Some(
                     departure * departure.transpose() / (1.0 + (1.0 + r).powi(2) + r * r),
-                )
+                ))
             }
             [(last, t1)] if self.long.weight == 0.0 => {
                 if timestamp <= t1 {
-                    return Sample::Break;
+                    return Err(Gap);
                 }
                 let step = se3::log(&(camera_from_world * last.inverse()));
-                Sample::Jitter(step * step.transpose() / 2.0)
+                Ok(Some(step * step.transpose() / 2.0))
             }
-            _ => Sample::None,
+            _ => Ok(None),
         }
     }
 
@@ -296,7 +294,7 @@ mod tests {
         // Two poses later the chain gives a sample again: 1 cm of departure along x
         // over equal steps, a sixth of its square.
         jitter.observe(&at(0.91), 35.0 / 30.0, true);
-        let Sample::Jitter(sample) = jitter.sample(&at(0.93), 36.0 / 30.0) else {
+        let Ok(Some(sample)) = jitter.sample(&at(0.93), 36.0 / 30.0) else {
             panic!("no sample");
         };
         assert!((sample[(0, 0)] - 1e-4 / 6.0).abs() < 1e-12, "{sample}");
