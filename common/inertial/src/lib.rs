@@ -5,6 +5,7 @@
 //! unobserved (one wall and the floor, a blur), the IMU carries the motion for the
 //! seconds that matter, and it measures gravity, which fixes the vertical.
 //!
+//! - [`config`]: the `[imu]` table: the IMU's mount in the camera, noise, clock;
 //! - [`sample`]: one measurement, and a stream's checks (order, repeats, gaps, NaN) and
 //!   the combination of separate gyroscope and accelerometer topics;
 //! - [`noise`]: noise densities and bias random walks, with the figures of the parts
@@ -23,6 +24,7 @@
 //! `p_wb`, its velocity `v_wb` in the world, and the biases; a state is perturbed as
 //! `R <- R Exp(dphi)`, `p <- p + dp`, `v <- v + dv`, `b <- b + db`.
 
+pub mod config;
 pub mod initialisation;
 pub mod noise;
 pub mod preintegration;
@@ -32,6 +34,7 @@ pub mod simulate;
 #[cfg(test)]
 pub(crate) mod testing;
 
+pub use config::ImuConfig;
 pub use initialisation::{InertialInit, InitError, initialise};
 pub use noise::ImuNoise;
 pub use preintegration::{Bias, Preintegrated};

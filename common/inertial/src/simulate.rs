@@ -81,7 +81,8 @@ impl Simulator {
         epoch: Stamp,
     ) -> Vec<ImuSample> {
         let dt = 1.0 / rate_hz;
-        let count = ((span.1 - span.0) * rate_hz).ceil().max(0.0) as usize;
+        // [t0, t1): a rounding of the product above a whole number adds no sample.
+        let count = ((span.1 - span.0) * rate_hz - 1e-9).ceil().max(0.0) as usize;
         let gyro_sd = self.noise.gyro_noise / dt.sqrt();
         let accel_sd = self.noise.accel_noise / dt.sqrt();
         let gyro_step = self.noise.gyro_walk * dt.sqrt();
