@@ -209,33 +209,15 @@ pub fn measurement_covariance(information: &Matrix6<f64>, lever_arm_m: f64) -> M
 mod tests {
     use super::*;
 
-    /// Standard normal draws (xorshift64* and Box-Muller), reproducible from a seed.
-    struct Normal(u64);
-
-    impl Normal {
-        fn uniform(&mut self) -> f64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            let bits = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11;
-            (bits as f64 + 0.5) / (1u64 << 53) as f64
-        }
-
-        fn sample(&mut self) -> f64 {
-            let (u, v) = (self.uniform(), self.uniform());
-            (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-        }
-    }
-
     /// A camera turning and sliding at a constant rate, each pose off by noise of the
     /// standard deviations `sigma` (per component of `[rho; phi]`).
     fn noisy_run(sigma: &Vector6<f64>, frames: usize, seed: u64) -> PoseJitter {
-        let mut rng = Normal(0x9e37_79b9_7f4a_7c15 ^ (seed + 1));
+        let mut rng = gfs_core::rng::SplitMix64::new(seed);
         let step = se3::exp(&Vector6::new(0.01, 0.002, -0.004, 0.01, -0.02, 0.005));
         let mut truth = Isometry3::identity();
         let mut jitter = PoseJitter::default();
         for k in 0..frames {
-            let noise = Vector6::from_fn(|i, _| sigma[i] * rng.sample());
+            let noise = Vector6::from_fn(|i, _| sigma[i] * rng.gaussian());
             jitter.observe(&(se3::exp(&noise) * truth), k as f64 / 30.0, true);
             truth = step * truth;
         }
