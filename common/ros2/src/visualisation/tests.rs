@@ -211,10 +211,7 @@ fn frame_points_are_the_matches_with_depth_in_the_camera_frame_coloured_by_inlie
     assert_eq!(&values[0..3], &[0.0, 0.0, 2.0]);
     assert_eq!(&values[4..7], &[0.2, -0.2, 1.0]);
     let rgb = |v: f32| v.to_bits();
-    assert_eq!(
-        (rgb(values[3]), rgb(values[7])),
-        (0x0000_E600, 0x00FF_2828)
-    );
+    assert_eq!((rgb(values[3]), rgb(values[7])), (0x0000_E600, 0x00FF_2828));
     let named = frame::camera_header(Time::default(), "camera_color_optical_frame", "cam");
     assert_eq!(named.frame_id, "camera_color_optical_frame");
 }
