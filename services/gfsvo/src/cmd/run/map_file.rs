@@ -73,9 +73,11 @@ impl MapArgs {
         let Some(path) = &self.load_map else {
             return Ok(());
         };
+        let start = std::time::Instant::now();
         let saved = load_map(path, camera)?;
         tracing::info!(
             file = %path.display(),
+            ms = start.elapsed().as_secs_f64() * 1e3,
             keyframes = saved.map.keyframe_count(),
             points = saved.map.point_count(),
             localise = self.localize,
@@ -97,8 +99,10 @@ impl MapArgs {
         let Some(path) = &self.save_map else {
             return Ok(None);
         };
+        let start = std::time::Instant::now();
         let bytes = odometry.save_map(path, camera)?;
-        tracing::info!(file = %path.display(), bytes, "map saved");
+        let ms = start.elapsed().as_secs_f64() * 1e3;
+        tracing::info!(file = %path.display(), bytes, ms, "map saved");
         Ok(Some(bytes))
     }
 }
