@@ -84,9 +84,10 @@ impl TrackingSession {
     }
 
     /// With a fixed map, a tracked frame whose reference keyframe is not the one its
-    /// neighbourhood is centred on asks for the neighbourhood of its reference: the
-    /// camera is moving into another part of the map. The request carries the frame
-    /// without its features (nothing of it goes into the map).
+    /// neighbourhood is centred on, and is connected to keyframes the tracker does not
+    /// hold, asks for the neighbourhood of its reference: the camera is moving into
+    /// another part of the map (a map the tracker holds whole never asks). The request
+    /// carries the frame without its features (nothing of it goes into the map).
     pub(super) fn recentre_request(
         &mut self,
         frame: &TrackedFrame,
@@ -96,7 +97,12 @@ impl TrackingSession {
         let due = self.saved.fixed
             && tracked
             && self.requests.pending().is_none()
-            && self.saved.centre != Some(reference);
+            && self.saved.centre != Some(reference)
+            && self
+                .map
+                .connected(reference)
+                .iter()
+                .any(|(kf, _)| self.map.keyframe(*kf).is_none());
         if !due {
             return None;
         }
