@@ -152,9 +152,9 @@ pub enum MapFileProblem {
     #[error("made with another camera: the map's is {map}, this run's is {run}")]
     OtherCamera {
         /// The map's camera.
-        map: MapCamera,
+        map: Box<MapCamera>,
         /// The run's.
-        run: MapCamera,
+        run: Box<MapCamera>,
     },
     /// The payload does not decode as a map.
     #[error("payload does not decode: {0}")]
@@ -198,8 +198,8 @@ fn decode(bytes: &[u8], camera: &MapCamera) -> Result<SavedMap, MapFileProblem> 
     let header = Header::decode(bytes)?;
     if !header.camera.matches(camera) {
         return Err(MapFileProblem::OtherCamera {
-            map: header.camera,
-            run: *camera,
+            map: Box::new(header.camera),
+            run: Box::new(*camera),
         });
     }
     if header.payload_len > MAX_PAYLOAD_BYTES as u64 {
