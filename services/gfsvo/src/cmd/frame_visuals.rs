@@ -155,6 +155,25 @@ impl<'a> FrameVisuals<'a> {
         })
     }
 
+    /// The writer of `gfsvo run`'s recording: the colour images read again from the
+    /// dataset folder (`sequence`) or the bag at `dataset`.
+    ///
+    /// # Errors
+    /// The bag cannot be opened, or the config's camera is invalid.
+    pub fn of_run(
+        config: &'a Config,
+        dataset: &Path,
+        sequence: Option<&'a Sequence>,
+        views: &'a FrameViews,
+    ) -> CliResult<Self> {
+        let colours = match sequence {
+            _ if !config.ros2.visualisation.tracking_image => ColourFrames::None,
+            Some(sequence) => ColourFrames::Folder(sequence),
+            None => ColourFrames::bag(dataset, config)?,
+        };
+        Self::new(config, views, colours)
+    }
+
     /// The frame points and (when due) the tracking image of `pose`'s frame, stamped
     /// `stamp` (`time_ns` in the bag); `keyframes` made so far for the status line.
     ///

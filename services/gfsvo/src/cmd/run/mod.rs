@@ -7,9 +7,10 @@
 
 pub mod checks;
 mod inline;
+pub mod map_file;
 mod map_png;
 
-use super::frame_visuals::{ColourFrames, FrameVisuals};
+use super::frame_visuals::FrameVisuals;
 use crate::CliResult;
 use crate::bench::stats::Summary;
 use crate::config::Config;
@@ -88,6 +89,9 @@ pub struct RunArgs {
     /// record` writes).
     #[arg(long, default_value = "zstd")]
     pub mcap_compression: Compression,
+    /// Map files and the first frame.
+    #[command(flatten)]
+    pub map: map_file::MapArgs,
 }
 
 /// Per-stage timings of a run, as printed.
@@ -122,10 +126,10 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         Some(gt) => Some(Trajectory::read_tum(&gt)?),
         None => None,
     };
-    let total = args
-        .frames
-        .map_or(source.timestamps.len(), |n| n.min(source.timestamps.len()));
-    let timestamps = &source.timestamps[..total];
+    args.map.check(args.mode, source.timestamps.len())?;
+    let remaining = source.timestamps.len() - args.map.start;
+    let total = args.frames.map_or(remaining, |n| n.min(remaining));
+    let timestamps = &source.timestamps[args.map.start..args.map.start + total];
     let clock = std::time::Instant::now();
 
     let mut tracking_blocks = Vec::new();
@@ -133,6 +137,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let mut scene = None;
     let mut keyframe_scenes = Vec::new();
     let mut frame_views = pipeline::FrameViews::new();
+    let mut map_counts = None;
     let (poses, odometry, loops, processed, timings, keyframes, restarts, covariances) = if args
         .mode
         == RunMode::Inline
@@ -148,6 +153,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             total,
             &progress,
             args.map_png.is_some(),
+            &args.map,
         )?;
         progress.finish_and_clear();
         if outcome.interrupted {
@@ -161,6 +167,11 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         scene = outcome.scene;
         let processed = outcome.poses.len();
         let covariances = outcome.covariances;
+        map_counts = Some(serde_json::json!({
+            "loops_closed": outcome.loops.len(),
+            "keyframes_added": outcome.keyframes_added,
+            "relocalisations": outcome.relocalisations,
+        }));
         (
             outcome.poses,
             outcome.odometry,
@@ -271,7 +282,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             restarts: &stage_restarts,
             stamps: &[],
             scenes: &keyframe_scenes,
-            frames: Some(recorded_frames(
+            frames: Some(FrameVisuals::of_run(
                 &config,
                 &dataset,
                 sequence.as_ref(),
@@ -340,6 +351,11 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         if let Some(found) = &loops {
             object["loops"] = serde_json::to_value(found)?;
         }
+        if let Some(serde_json::Value::Object(counts)) = map_counts {
+            for (key, value) in counts {
+                object[key.as_str()] = value;
+            }
+        }
         if let Some(c) = &consistency {
             object["nees"] = super::eval::consistency_json(c);
         }
@@ -398,22 +414,6 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
     }
     Ok(())
-}
-
-/// The per-frame topics of the recording, with the colour images read again from the
-/// folder or bag.
-fn recorded_frames<'a>(
-    config: &'a Config,
-    dataset: &Path,
-    sequence: Option<&'a Sequence>,
-    views: &'a pipeline::FrameViews,
-) -> CliResult<FrameVisuals<'a>> {
-    let colours = match sequence {
-        _ if !config.ros2.visualisation.tracking_image => ColourFrames::None,
-        Some(sequence) => ColourFrames::Folder(sequence),
-        None => ColourFrames::bag(dataset, config)?,
-    };
-    FrameVisuals::new(config, views, colours)
 }
 
 /// The scenes of the keyframes by their frames' stamps (a frame id beyond the stamps,
