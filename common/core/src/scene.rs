@@ -1,6 +1,7 @@
 //! What a viewer draws of a map: points, segments, bounded plane patches and keyframe
-//! poses in the world frame, as plain data. The odometry builds it from its map; the
-//! figures and the ROS 2 visualisation messages draw it.
+//! poses in the world frame, as plain data; and of a tracked frame ([`FrameView`]): its
+//! matched keypoints and lines. The odometry builds them; the figures and the ROS 2
+//! visualisation messages draw them.
 
 use nalgebra::{Isometry3, Point3, Vector3};
 
@@ -47,4 +48,33 @@ impl Scene {
             && self.planes.is_empty()
             && self.keyframes.is_empty()
     }
+}
+
+/// A keypoint of a tracked frame that was matched to a map point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FramePoint {
+    /// Undistorted pixel (u, v).
+    pub uv: [f32; 2],
+    /// Depth, metres (0 = none).
+    pub depth: f32,
+    /// True when an inlier of the frame's pose, false when its optimisation rejected it.
+    pub inlier: bool,
+}
+
+/// A line of a tracked frame that was matched to a map line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameLine {
+    /// Undistorted pixel endpoints.
+    pub ends: [[f32; 2]; 2],
+    /// As [`FramePoint::inlier`].
+    pub inlier: bool,
+}
+
+/// A tracked frame as a viewer draws it: its matched keypoints and lines.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameView {
+    /// Matched keypoints.
+    pub points: Vec<FramePoint>,
+    /// Matched lines.
+    pub lines: Vec<FrameLine>,
 }

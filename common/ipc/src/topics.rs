@@ -51,6 +51,12 @@ pub const POSE: TopicSpec = TopicSpec {
     name: "pose",
     kind: TopicKind::Features,
 };
+/// `tracker` -> recorder, `gfsvo-ros2`: the matched keypoints and lines of frame k, for
+/// viewers (published only while someone subscribes).
+pub const TRACKED: TopicSpec = TopicSpec {
+    name: "tracked",
+    kind: TopicKind::Features,
+};
 /// `tracker` -> `mapper`: a new keyframe (bincode).
 pub const KEYFRAME: TopicSpec = TopicSpec {
     name: "keyframe",
@@ -76,13 +82,14 @@ pub const LOOP_VERDICT: TopicSpec = TopicSpec {
 };
 
 /// Every topic of the pipeline.
-pub const ALL: [TopicSpec; 10] = [
+pub const ALL: [TopicSpec; 11] = [
     FRAME,
     POINTS,
     LINES,
     MANHATTAN,
     SURFACES,
     POSE,
+    TRACKED,
     KEYFRAME,
     LOCAL_MAP,
     KEYFRAME_MAP,

@@ -75,4 +75,4 @@ pub use tracking::relocalisation::against_map::{MapRelocalisation, MapRelocalise
 pub use tracking::relocalisation::around_reference::{Relocalisation, relocalise};
 pub use tracking::sightings::{SightingCount, Sightings};
 pub use tracking::status::TrackingStatus;
-pub use tracking::tracker::{Strategy, TrackedFrame, Tracker};
+pub use tracking::tracker::{FrameMatches, Strategy, TrackedFrame, Tracker};

@@ -10,6 +10,9 @@ use gfs_planes::ManhattanAxes;
 use gfs_points::{Descriptor, KeyPoint};
 use nalgebra::{Isometry3, Matrix3, Matrix6, Quaternion, Rotation3, Translation3, UnitQuaternion};
 
+mod tracked;
+pub use tracked::WireTrackedFeature;
+
 /// One ORB keypoint with its descriptor (`points` topic).
 #[derive(Clone, Copy, Debug, Default, PartialEq, ZeroCopySend)]
 #[type_name("gfsvo::WireKeyPoint")]

@@ -170,6 +170,38 @@ impl FrameConverter {
         Ok(())
     }
 
+    /// The colour image as the dataset reader gives it, rgb undistorted (bilinear) when
+    /// the camera has distortion, into `out`: what the tracking image is drawn on.
+    ///
+    /// # Errors
+    /// [`ImageError`] for an unknown encoding, another size, a short step or data.
+    pub fn undistorted_colour(
+        &mut self,
+        colour: Received<'_>,
+        out: &mut RgbImage,
+    ) -> Result<(), ImageError> {
+        let kind = Colour::parse(&colour.image.encoding)
+            .ok_or_else(|| colour.error(unknown_colour(&colour.image.encoding)))?;
+        let step = colour.rows(self.size, kind.bytes())?;
+        let (w, h) = self.size;
+        let target = if self.undistort.is_some() {
+            &mut self.raw_rgb
+        } else {
+            &mut *out
+        };
+        target.resize(w, h);
+        for (y, src) in colour.image.data.chunks(step).take(h).enumerate() {
+            for (px, p) in src.chunks_exact(kind.bytes()).zip(target.row_mut(y)) {
+                *p = kind.rgb(px);
+            }
+        }
+        if let Some(map) = &self.undistort {
+            map.remap_rgb(&self.raw_rgb.view(), out)
+                .map_err(|e| colour.error(e.to_string()))?;
+        }
+        Ok(())
+    }
+
     fn colour(&mut self, colour: Received<'_>, gray: &mut [u8]) {
         let (w, h) = self.size;
         let img = colour.image;

@@ -117,7 +117,7 @@ fn sensor_qos() -> QosProfile {
 }
 
 /// The participant on the ROS domain and the node `name` on it.
-fn node(name: &str) -> Result<Node, DdsError> {
+pub(crate) fn node(name: &str) -> Result<Node, DdsError> {
     let mut builder = DomainParticipantBuilder::new(domain_id()?);
     if localhost_only() {
         builder = builder
@@ -131,7 +131,7 @@ fn node(name: &str) -> Result<Node, DdsError> {
     )?)
 }
 
-fn topic(
+pub(crate) fn topic(
     node: &mut Node,
     name: &str,
     pkg: &str,

@@ -6,6 +6,7 @@
 
 mod dds;
 mod stage;
+mod visuals;
 
 use gfs_pipeline::service::StageArgs;
 use std::path::PathBuf;

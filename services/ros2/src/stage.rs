@@ -2,6 +2,7 @@
 //! the source's role in the run (its stamps are the source's in `profile.json`).
 
 use crate::dds::{DdsError, Endpoints, camera_info_only, endpoints};
+use crate::visuals::Visuals;
 use gfs_core::stamp::Stamp;
 use gfs_ipc::{FrameLayout, IpcRun, RunId, Stage, ipc, monotonic_ns, topics};
 use gfs_pipeline::service::StageArgs;
@@ -41,7 +42,7 @@ const CAMERA_RESTART_NS: i64 = 1_000_000_000;
 pub fn run(args: &StageArgs) -> Result<(), DdsError> {
     let settings = args.settings()?;
     let run = IpcRun::new(RunId::new(&args.run_id)?)?;
-    let ctx = StageContext::<ipc::Service>::process(run, Stage::Source, settings)?;
+    let ctx = StageContext::<ipc::Service>::process(run.clone(), Stage::Source, settings)?;
     let config = ctx.config().clone();
     let ros2 = &config.ros2;
     let camera = config.camera()?;
@@ -64,6 +65,7 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
         None => None,
     };
     let dds = endpoints(ros2)?;
+    let mut visuals = Visuals::start(&run, ctx.mode(), &config)?;
     let (colour_topic, depth_topic) = ros2.image_topics();
     tracing::info!("subscribed to {colour_topic} and {depth_topic}; next frame {next_id}");
     let mut converter = FrameConverter::new(&camera, &config.depth);
@@ -126,6 +128,9 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
                                 stamps.pop_front();
                             }
                             stamps.push_back((next_id, stamp));
+                            if let Some(visuals) = visuals.as_mut() {
+                                visuals.frame(next_id, stamp, colour.image);
+                            }
                             next_id += 1;
                             state.write(CHECKPOINT, &next_id, &mut scratch)?;
                         }

@@ -148,6 +148,18 @@ pub struct MapUpdateRef<'a> {
     pub relocalised: Option<&'a Relocalised>,
 }
 
+impl MapUpdate {
+    /// The map as a viewer draws it, with the world Manhattan axes when all three are
+    /// known.
+    pub fn scene(&self) -> gfs_core::scene::Scene {
+        let mut scene = self.map.scene();
+        if let [Some(a), Some(b), Some(c)] = [0, 1, 2].map(|k| self.manhattan.axis(k)) {
+            scene.axes = Some([a, b, c]);
+        }
+        scene
+    }
+}
+
 impl MapUpdateRef<'_> {
     /// An owned copy.
     pub fn to_owned(&self) -> MapUpdate {

@@ -7,7 +7,7 @@ use crate::map::Map;
 use crate::tracking::matching::ScalePyramid;
 use crate::tracking::observation::{KeypointMeasurement, LINE_INV_SIGMA2, observed_line};
 use gfs_core::camera::PinholeCamera;
-use gfs_core::ids::{MapLineId, MapPointId};
+use gfs_core::ids::{FrameId, MapLineId, MapPointId};
 use gfs_optim::residuals::PosePrior;
 use gfs_optim::{
     DepthObservation, LineObservation, PhotometricObservation, PhotometricScratch, PhotometricTerm,
@@ -59,6 +59,9 @@ pub struct PoseSolver {
     photometric_level: IntensityLevel,
     prior: Option<PosePrior>,
     result: PoseResult,
+    /// The frame of the last solve: what `point_index` / `line_index` and the result's
+    /// inlier flags refer to.
+    solved: Option<FrameId>,
 }
 
 impl PoseSolver {
@@ -79,6 +82,7 @@ impl PoseSolver {
             photometric_level: IntensityLevel::Cells,
             prior: None,
             result: PoseResult::default(),
+            solved: None,
         }
     }
 
@@ -142,6 +146,7 @@ impl PoseSolver {
         line_ids: &mut [Option<MapLineId>],
     ) -> Inliers {
         self.result.covariance = None;
+        self.solved = Some(frame.id);
         self.points.clear();
         self.point_index.clear();
         for (i, id) in point_ids.iter().enumerate() {
@@ -225,11 +230,50 @@ impl PoseSolver {
         }
     }
 
+    /// The keypoints of `frame` that its last solve matched and rejected as outliers
+    /// (none when the last solve was of another frame, or had no observation).
+    pub fn rejected_points(&self, frame: FrameId) -> impl Iterator<Item = usize> + '_ {
+        rejected(
+            self.solved == Some(frame),
+            &self.point_index,
+            &self.result.point_inliers,
+        )
+    }
+
+    /// The lines of `frame` that its last solve matched and rejected, as
+    /// [`Self::rejected_points`].
+    pub fn rejected_lines(&self, frame: FrameId) -> impl Iterator<Item = usize> + '_ {
+        rejected(
+            self.solved == Some(frame),
+            &self.line_index,
+            &self.result.line_inliers,
+        )
+    }
+
     /// True when the last solve converged with inliers to a pose whose posterior
     /// information is positive definite ([`gfs_optim::PoseResult::covariance`]).
     pub fn converged(&self) -> bool {
         self.result.covariance.is_some()
     }
+}
+
+/// The features `index` names whose `inliers` flag is false (`inliers` is the last
+/// optimisation's, possibly of fewer observations when it returned early).
+fn rejected<'a>(
+    current: bool,
+    index: &'a [usize],
+    inliers: &'a [bool],
+) -> impl Iterator<Item = usize> + 'a {
+    let n = if current {
+        index.len().min(inliers.len())
+    } else {
+        0
+    };
+    index[..n]
+        .iter()
+        .zip(&inliers[..n])
+        .filter(|(_, inlier)| !**inlier)
+        .map(|(i, _)| *i)
 }
 
 #[cfg(test)]
@@ -264,6 +308,11 @@ mod tests {
         assert_eq!(point_ids[0], None, "the outlier is unlinked");
         assert_eq!((inliers.points, inliers.lines, inliers.depth), (149, 10, 0));
         assert_eq!(inliers.total(), 159);
+        // What a viewer is told: keypoint 0 rejected, no line; nothing of another frame.
+        let rejected: Vec<usize> = solver.rejected_points(frame.id).collect();
+        assert_eq!(rejected, [0]);
+        assert_eq!(solver.rejected_lines(frame.id).count(), 0);
+        assert_eq!(solver.rejected_points(FrameId(frame.id.0 + 1)).count(), 0);
     }
 
     #[test]

@@ -10,7 +10,7 @@ use super::context::{POLL, StageContext, StageError, mark_ready};
 use super::join::{FrameJoin, Joined, Part};
 use super::mapper::saved_maps;
 use crate::state::StateDir;
-use crate::wire::{WireKeyPoint, WireLine, WireManhattan, WirePose};
+use crate::wire::{WireKeyPoint, WireLine, WireManhattan, WirePose, WireTrackedFeature};
 use gfs_ipc::{
     MAX_VARIABLE_MESSAGE_BYTES, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
     decode_message, encode_message, topics,
@@ -31,6 +31,8 @@ struct Ports<S: Service> {
     surfaces: Option<TopicSubscriber<S, u8>>,
     maps: TopicSubscriber<S, u8>,
     poses: TopicPublisher<S, WirePose>,
+    /// The frame's matches for viewers, sent only while one subscribes.
+    tracked: TopicPublisher<S, WireTrackedFeature>,
     keyframes: TopicPublisher<S, u8>,
 }
 
@@ -68,11 +70,13 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         },
         maps: ctx.subscribe(topics::LOCAL_MAP)?,
         poses: ctx.publish(topics::POSE, 1)?,
+        tracked: ctx.publish(topics::TRACKED, 2048)?,
         keyframes: ctx.publish(topics::KEYFRAME, 1 << 20)?,
     };
     let mut join = FrameJoin::new(surfaces_expected);
     let mut outstanding: Option<Outstanding> = None;
     let mut scratch = Vec::new();
+    let mut tracked = Vec::new();
     while !ctx.stopping() {
         if take_maps(&ports.maps, &mut session)?.is_some() {
             outstanding = None;
@@ -89,6 +93,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }) = joined
         else {
             ports.poses.update_connections()?;
+            ports.tracked.update_connections()?;
             ports.keyframes.update_connections()?;
             resend_if_stale(ctx, &ports.keyframes, &mut outstanding)?;
             match join.waiting_for() {
@@ -159,6 +164,12 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             .with_map_from_odom(session.map_from_odom())
             .with_anchor(session.anchor(&pose).as_ref());
         ports.poses.publish_slice(&header, &[wire])?;
+        if ports.tracked.subscriber_count() > 0
+            && let Some(matches) = session.last_matches()
+        {
+            WireTrackedFeature::fill(&matches, &mut tracked);
+            ports.tracked.publish_slice(&header, &tracked)?;
+        }
         ctx.made(id.0);
         state.write(CHECKPOINT, &session.checkpoint(), &mut scratch)?;
         next_frame = id.0 + 1;

@@ -3,8 +3,11 @@
 //! patches and Manhattan axes (`/gfsvo/structure`, MarkerArray), the keyframe poses
 //! (`/gfsvo/keyframes`, Path in `map`) and the odometry so far (`/gfsvo/path`, Path in
 //! `odom`). Built from a [`Scene`] of the map and the published poses: the frames of
-//! REP 105 as [`crate::odom`] uses them (`odom` is the base at the first image).
+//! REP 105 as [`crate::odom`] uses them (`odom` is the base at the first image). Of each
+//! frame ([`frame`]): its matched points in the camera frame (`/gfsvo/frame_points`)
+//! and the tracking image (`/gfsvo/tracking_image`).
 
+pub mod frame;
 pub mod msg;
 
 use crate::config::Ros2Config;
@@ -61,6 +64,18 @@ pub struct VisualisationConfig {
     pub path: bool,
     /// Rate of `/gfsvo/path`, Hz of the data's stamps.
     pub path_rate_hz: f64,
+    /// `/gfsvo/frame_points` on every frame.
+    pub frame_points: bool,
+    /// `/gfsvo/tracking_image` at `tracking_image_rate_hz` of the data's clock.
+    pub tracking_image: bool,
+    /// Rate of the tracking image, Hz of the data's stamps.
+    pub tracking_image_rate_hz: f64,
+    /// `raw`: `sensor_msgs/Image` rgb8 on `/gfsvo/tracking_image`; `jpeg`:
+    /// `sensor_msgs/CompressedImage` on `/gfsvo/tracking_image/compressed`.
+    pub tracking_image_format: frame::ImageFormat,
+    /// The camera's optical frame of `/gfsvo/frame_points` and the tracking image when
+    /// the colour images name none (dataset folders).
+    pub camera_frame: String,
 }
 
 impl Default for VisualisationConfig {
@@ -71,6 +86,11 @@ impl Default for VisualisationConfig {
             keyframes: true,
             path: true,
             path_rate_hz: 1.0,
+            frame_points: true,
+            tracking_image: true,
+            tracking_image_rate_hz: 1.0,
+            tracking_image_format: frame::ImageFormat::Raw,
+            camera_frame: "camera_color_optical_frame".to_owned(),
         }
     }
 }
@@ -81,11 +101,18 @@ impl VisualisationConfig {
     /// # Errors
     /// Naming the field and its value.
     pub fn validate(&self) -> Result<(), String> {
-        if !(self.path_rate_hz.is_finite() && self.path_rate_hz > 0.0) {
-            return Err(format!(
-                "ros2.visualisation.path_rate_hz = {} must be a positive number",
-                self.path_rate_hz
-            ));
+        for (field, rate) in [
+            ("path_rate_hz", self.path_rate_hz),
+            ("tracking_image_rate_hz", self.tracking_image_rate_hz),
+        ] {
+            if !(rate.is_finite() && rate > 0.0) {
+                return Err(format!(
+                    "ros2.visualisation.{field} = {rate} must be a positive number"
+                ));
+            }
+        }
+        if self.camera_frame.trim().is_empty() {
+            return Err("ros2.visualisation.camera_frame must name a frame".to_owned());
         }
         Ok(())
     }
@@ -163,39 +190,11 @@ impl Visualiser {
                 .unwrap_or(0.0)
         };
         let (lo, hi) = (at(0.02), at(0.98));
-        let mut data = Vec::with_capacity(points.len() * POINT_STEP as usize);
-        for p in &points {
+        let coloured = points.iter().map(|p| {
             let t = if hi > lo { (p.z - lo) / (hi - lo) } else { 0.5 };
-            let [r, g, b] = viridis(t).map(|c| (c * 255.0).round() as u32);
-            // PCL's packed colour: 0x00RRGGBB in the bits of a float32.
-            let rgb = f32::from_bits((r << 16) | (g << 8) | b);
-            for v in [p.x, p.y, p.z, rgb] {
-                data.extend_from_slice(&v.to_le_bytes());
-            }
-        }
-        let field = |name: &str, offset| PointField {
-            name: name.to_owned(),
-            offset,
-            datatype: FLOAT32,
-            count: 1,
-        };
-        let width = points.len() as u32;
-        PointCloud2 {
-            header: Self::header(stamp, &self.odom_frame),
-            height: 1,
-            width,
-            fields: vec![
-                field("x", 0),
-                field("y", 4),
-                field("z", 8),
-                field("rgb", 12),
-            ],
-            is_bigendian: false,
-            point_step: POINT_STEP,
-            row_step: POINT_STEP * width,
-            data,
-            is_dense: true,
-        }
+            (*p, viridis(t).map(|c| (c * 255.0).round() as u8))
+        });
+        cloud(Self::header(stamp, &self.odom_frame), coloured)
     }
 
     /// `/gfsvo/structure`: the lines (LINE_LIST, namespace `lines`), the plane patches
@@ -286,6 +285,41 @@ impl Visualiser {
                 })
                 .collect(),
         }
+    }
+}
+
+/// A PointCloud2 of x y z rgb float32 (PCL's packed colour) of `points`.
+fn cloud(header: Header, points: impl Iterator<Item = (Point3<f32>, [u8; 3])>) -> PointCloud2 {
+    let mut data = Vec::with_capacity(points.size_hint().0 * POINT_STEP as usize);
+    for (p, [r, g, b]) in points {
+        // PCL's packed colour: 0x00RRGGBB in the bits of a float32.
+        let rgb = f32::from_bits((u32::from(r) << 16) | (u32::from(g) << 8) | u32::from(b));
+        for v in [p.x, p.y, p.z, rgb] {
+            data.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let field = |name: &str, offset| PointField {
+        name: name.to_owned(),
+        offset,
+        datatype: FLOAT32,
+        count: 1,
+    };
+    let width = (data.len() / POINT_STEP as usize) as u32;
+    PointCloud2 {
+        header,
+        height: 1,
+        width,
+        fields: vec![
+            field("x", 0),
+            field("y", 4),
+            field("z", 8),
+            field("rgb", 12),
+        ],
+        is_bigendian: false,
+        point_step: POINT_STEP,
+        row_step: POINT_STEP * width,
+        data,
+        is_dense: true,
     }
 }
 

@@ -186,3 +186,101 @@ fn the_schemas_name_every_type_they_use() {
     };
     assert!(zero.validate().unwrap_err().contains("path_rate_hz"));
 }
+
+#[test]
+fn frame_points_are_the_matches_with_depth_in_the_camera_frame_coloured_by_inlier() {
+    use gfs_core::camera::PinholeCamera;
+    use gfs_core::scene::{FramePoint, FrameView};
+    let camera = PinholeCamera::new(500.0, 500.0, 320.0, 240.0, 640, 480);
+    let point = |uv: [f32; 2], depth: f32, inlier: bool| FramePoint { uv, depth, inlier };
+    let view = FrameView {
+        points: vec![
+            point([320.0, 240.0], 2.0, true),
+            point([420.0, 140.0], 1.0, false),
+            point([100.0, 100.0], 0.0, true),
+            point([100.0, 100.0], f32::NAN, true),
+        ],
+        lines: Vec::new(),
+    };
+    let header = frame::camera_header(Time::from_secs(3.5), "", "cam");
+    let cloud = Visualiser::new(&Ros2Config::default()).frame_points(&view, &camera, header);
+    assert_eq!(cloud.header.frame_id, "cam");
+    // The points without a depth are left out; the others are back-projected.
+    assert_eq!(cloud.width, 2);
+    let values = floats(&cloud.data);
+    assert_eq!(&values[0..3], &[0.0, 0.0, 2.0]);
+    assert_eq!(&values[4..7], &[0.2, -0.2, 1.0]);
+    let rgb = |v: f32| v.to_bits();
+    assert_eq!((rgb(values[3]), rgb(values[7])), (0x0000_E600, 0x00FF_2828));
+    let named = frame::camera_header(Time::default(), "camera_color_optical_frame", "cam");
+    assert_eq!(named.frame_id, "camera_color_optical_frame");
+}
+
+#[test]
+fn tracking_images_are_rgb8_or_jpeg_at_their_rate_of_the_data_clock() {
+    use frame::{ImageFormat, RateGate, TrackingImage, tracking_image};
+    let mut image = gfs_core::RgbImage::new(64, 48);
+    image.as_mut_slice().fill([10, 200, 30]);
+    let header = frame::camera_header(Time::from_secs(1.0), "cam", "");
+    let TrackingImage::Raw(raw) = tracking_image(&image, header.clone(), ImageFormat::Raw).unwrap()
+    else {
+        panic!("raw expected")
+    };
+    assert_eq!(
+        (raw.width, raw.height, raw.step, raw.encoding.as_str()),
+        (64, 48, 192, "rgb8")
+    );
+    assert_eq!(&raw.data[..3], &[10, 200, 30]);
+    assert_eq!(raw.data.len(), 64 * 48 * 3);
+    let TrackingImage::Compressed(jpeg) =
+        tracking_image(&image, header, ImageFormat::Jpeg).unwrap()
+    else {
+        panic!("jpeg expected")
+    };
+    assert!(jpeg.data.starts_with(&[0xFF, 0xD8]) && jpeg.format.contains("jpeg"));
+    let decoded = image::load_from_memory(&jpeg.data).unwrap().to_rgb8();
+    assert_eq!(decoded.dimensions(), (64, 48));
+    let px = decoded.get_pixel(10, 10).0;
+    assert!(
+        px.iter()
+            .zip([10, 200, 30])
+            .all(|(a, b)| a.abs_diff(b) <= 8),
+        "{px:?}"
+    );
+    assert_eq!(
+        ImageFormat::Jpeg.topic(),
+        "/gfsvo/tracking_image/compressed"
+    );
+
+    // 2 Hz of 30 Hz stamps over 3 s: the first frame, then every 0.5 s.
+    let mut gate = RateGate::new(2.0);
+    let due: Vec<usize> = (0..90)
+        .filter(|k| gate.due(100.0 + *k as f64 / 30.0))
+        .collect();
+    assert_eq!(due, [0, 15, 30, 45, 60, 75]);
+    // A camera that restarted its clock is shown at once.
+    assert!(gate.due(5.0));
+    assert!(!gate.due(5.1));
+}
+
+#[test]
+fn the_visualisation_table_refuses_rates_and_frames_it_cannot_use() {
+    let rate = VisualisationConfig {
+        tracking_image_rate_hz: -1.0,
+        ..VisualisationConfig::default()
+    };
+    assert!(
+        rate.validate()
+            .unwrap_err()
+            .contains("tracking_image_rate_hz = -1")
+    );
+    let frame = VisualisationConfig {
+        camera_frame: " ".to_owned(),
+        ..VisualisationConfig::default()
+    };
+    assert!(frame.validate().unwrap_err().contains("camera_frame"));
+    let text = "tracking_image_format = \"jpeg\"\ntracking_image_rate_hz = 5.0\n";
+    let parsed: VisualisationConfig = toml::from_str(text).unwrap();
+    assert_eq!(parsed.tracking_image_format, frame::ImageFormat::Jpeg);
+    assert!(toml::from_str::<VisualisationConfig>("tracking_image_format = \"png\"").is_err());
+}

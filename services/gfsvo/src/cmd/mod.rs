@@ -3,6 +3,7 @@
 pub mod clean;
 pub mod convert;
 pub mod eval;
+pub mod frame_visuals;
 pub mod profile;
 pub mod record;
 pub mod ros2;

@@ -3,6 +3,7 @@
 //! and the status) until SIGINT / SIGTERM; then writes `trajectory.txt` (one pose per
 //! frame received, stamped with the colour stamp), `status.txt` and `profile.json`.
 
+use super::frame_visuals::{ColourFrames, FrameVisuals};
 use super::ros2_io::{RunDetails, camera_values, record_mcap, write_config};
 use super::run::write_outputs;
 use crate::CliResult;
@@ -159,13 +160,18 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
             restarts: &restarts,
             stamps: &stamps,
             scenes: &scenes,
+            frames: Some(FrameVisuals::new(
+                &config,
+                &outcome.views,
+                ColourFrames::None,
+            )?),
         };
         record_mcap(
             path,
             &config,
             &poses,
             &outcome.covariances,
-            &details,
+            details,
             args.mcap_compression,
         )?;
     }

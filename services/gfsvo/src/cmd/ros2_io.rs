@@ -153,6 +153,8 @@ pub struct RunDetails<'a> {
     pub stamps: &'a [Stamp],
     /// The tracker's map after each keyframe, by the keyframe's stamp (seconds).
     pub scenes: &'a [(f64, Scene)],
+    /// The frame points and tracking images, when recorded.
+    pub frames: Option<super::frame_visuals::FrameVisuals<'a>>,
 }
 
 /// Writes `/odom`, `/tf` and the status of every pose into an MCAP file (ROS 2 profile),
@@ -161,7 +163,8 @@ pub struct RunDetails<'a> {
 /// once a second of the camera's clock; and the visualisation topics
 /// `[ros2.visualisation]` switches on: the tracker's map after each keyframe
 /// (`details.scenes`, by the keyframe's stamp) as landmarks, structure and keyframes,
-/// and the path of the poses so far at `path_rate_hz` of their stamps and after the last.
+/// and the path of the poses so far at `path_rate_hz` of their stamps and after the last;
+/// each frame's points and tracking image (`details.frames`).
 ///
 /// # Errors
 /// The file cannot be written.
@@ -170,7 +173,7 @@ pub fn record_mcap(
     config: &Config,
     poses: &[FramePose],
     covariances: &Covariances,
-    details: &RunDetails<'_>,
+    mut details: RunDetails<'_>,
     compression: Compression,
 ) -> CliResult {
     let ros2 = &config.ros2;
@@ -183,6 +186,7 @@ pub fn record_mcap(
     let mut scenes = details.scenes.iter().peekable();
     let mut path_so_far = Vec::with_capacity(poses.len());
     let mut next_path = f64::NEG_INFINITY;
+    let mut keyframes = 0;
     let ns = |stamp: f64| (stamp.max(0.0) * 1e9).round() as u64;
     for (k, pose) in poses.iter().enumerate() {
         let stamp = details
@@ -193,6 +197,7 @@ pub fn record_mcap(
             .unwrap_or_default();
         while let Some((keyframe_s, scene)) = scenes.next_if(|(s, _)| *s <= pose.timestamp) {
             let at = ns(*keyframe_s);
+            keyframes = scene.keyframes.len();
             if shown.landmarks {
                 let cloud = visualiser.landmarks(scene, *keyframe_s);
                 writer.write(LANDMARKS_TOPIC, &msg::POINT_CLOUD2, at, &cloud)?;
@@ -222,6 +227,9 @@ pub fn record_mcap(
             writer.write(&ros2.tf_topic, &schema::TF_MESSAGE, time, tf)?;
         }
         writer.write(&ros2.status_topic, &schema::STRING, time, &messages.status)?;
+        if let Some(frames) = &mut details.frames {
+            frames.write(&mut writer, pose, (Time::from(stamp), time), keyframes)?;
+        }
         path_so_far.push((pose.timestamp, pose.world_from_camera));
         let last = k + 1 == poses.len();
         if shown.path && (pose.timestamp >= next_path || last) {

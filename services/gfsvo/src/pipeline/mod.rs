@@ -10,7 +10,8 @@ mod threads;
 mod watchdog;
 
 pub use recorder::{
-    Anchors, Corrections, Covariances, Recorder, Scenes, complete_trajectory, final_poses,
+    Anchors, Corrections, Covariances, FrameViews, Recorder, Scenes, complete_trajectory,
+    final_poses,
 };
 
 use crate::CliResult;
@@ -84,6 +85,8 @@ pub struct PipelineOutcome {
     pub final_map: Option<Map>,
     /// The tracker's map after each keyframe (empty unless `keep_scenes`).
     pub scenes: Scenes,
+    /// Each frame's matched keypoints and lines (empty unless `keep_scenes`).
+    pub views: FrameViews,
     /// Stage stamps of every frame.
     pub profile: Profile,
     /// Keyframes made.
@@ -120,8 +123,12 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
     };
     if options.threads {
         let node = run.node::<local::Service>("recorder")?;
-        let recorder = Recorder::new(&run, &node, options.settings.mode, label)?
-            .keeping_scenes(options.keep_scenes);
+        let recorder = Recorder::new(&run, &node, options.settings.mode, label)?.keeping_scenes(
+            options.keep_scenes,
+            &run,
+            &node,
+            options.settings.mode,
+        )?;
         let mut pool =
             StageThreads::start(options.run_id.clone(), options.settings.clone(), policy)?;
         let result = supervise(&run, recorder, options, |_| pool.restart_dead());
@@ -131,8 +138,12 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
         finish(options, run.finish(), result, totals)
     } else {
         let node = run.node::<ipc::Service>("recorder")?;
-        let recorder = Recorder::new(&run, &node, options.settings.mode, label)?
-            .keeping_scenes(options.keep_scenes);
+        let recorder = Recorder::new(&run, &node, options.settings.mode, label)?.keeping_scenes(
+            options.keep_scenes,
+            &run,
+            &node,
+            options.settings.mode,
+        )?;
         let dir = std::env::current_exe()?
             .parent()
             .map(Path::to_path_buf)
@@ -193,6 +204,7 @@ struct Recorded {
     anchors: Anchors,
     keyframes: usize,
     scenes: Scenes,
+    views: FrameViews,
     interrupted: bool,
 }
 
@@ -232,11 +244,18 @@ fn supervise<S: Service>(
         recorder.wait(Duration::from_millis(20))?;
     }
     recorder.drain()?;
+    // The matches of a frame follow its pose: give the last frame's a moment.
+    let deadline = Instant::now() + Duration::from_millis(500);
+    while !interrupted && !recorder.has_view(last) && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
+        recorder.drain()?;
+    }
     bar.finish_and_clear();
     let keyframes = recorder.keyframes();
     let corrections = recorder.take_corrections();
     let anchors = recorder.take_anchors();
     let scenes = recorder.take_scenes();
+    let views = recorder.take_views();
     let (profile, received, covariances) = recorder.into_profile();
     Ok(Recorded {
         profile,
@@ -246,6 +265,7 @@ fn supervise<S: Service>(
         anchors,
         keyframes,
         scenes,
+        views,
         interrupted,
     })
 }
@@ -272,6 +292,7 @@ fn finish(
         anchors: recorded.anchors,
         final_map,
         scenes: recorded.scenes,
+        views: recorded.views,
         profile: recorded.profile,
         keyframes: recorded.keyframes,
         restarts: totals.into_iter().collect(),

@@ -2,7 +2,7 @@
 //! stamps its header carried, and the mapper's stamps from the `local-map` topic.
 
 use gfs_core::ids::FrameId;
-use gfs_core::scene::Scene;
+use gfs_core::scene::{FrameView, Scene};
 use gfs_ipc::profile::Profile;
 use gfs_ipc::{
     IpcError, IpcRun, MAX_VARIABLE_MESSAGE_BYTES, Mode, Service, Stage, TopicSubscriber,
@@ -11,7 +11,7 @@ use gfs_ipc::{
 use gfs_odometry::map::Map;
 use gfs_odometry::session::MapUpdate;
 use gfs_odometry::{FrameAnchor, FramePose, TrackingStatus};
-use gfs_pipeline::wire::WirePose;
+use gfs_pipeline::wire::{WirePose, WireTrackedFeature};
 use iceoryx2::node::Node;
 use nalgebra::Isometry3;
 use std::collections::BTreeMap;
@@ -33,11 +33,16 @@ pub struct Recorder<S: Service> {
     /// The tracker's map as a viewer draws it, after each keyframe, by the keyframe's
     /// frame id (`None`: not kept).
     scenes: Option<Scenes>,
+    /// With the scenes: each frame's matched keypoints and lines, by frame id.
+    tracked: Option<(TopicSubscriber<S, WireTrackedFeature>, FrameViews)>,
 }
 
 /// The tracker's map after each keyframe as a viewer draws it, by the keyframe's frame
 /// id, in arrival order.
 pub type Scenes = Vec<(u64, Scene)>;
+
+/// Each tracked frame's matched keypoints and lines, by frame id.
+pub type FrameViews = BTreeMap<u64, FrameView>;
 
 /// Each frame's reference keyframe and its map pose when tracked, by frame id (frames
 /// before the first keyframe have none).
@@ -68,14 +73,29 @@ impl<S: Service> Recorder<S> {
             keyframes: 0,
             profile: Profile::new(label),
             scenes: None,
+            tracked: None,
         })
     }
 
     /// Also keeps the tracker's map after each keyframe as a [`Scene`] (decoded here, in
-    /// the supervisor, off the stages' path).
-    pub fn keeping_scenes(mut self, keep: bool) -> Self {
+    /// the supervisor, off the stages' path) and each frame's matches.
+    ///
+    /// # Errors
+    /// [`IpcError`] when the matches' topic cannot be opened.
+    pub fn keeping_scenes(
+        mut self,
+        keep: bool,
+        run: &IpcRun,
+        node: &Node<S>,
+        mode: Mode,
+    ) -> Result<Self, IpcError> {
         self.scenes = keep.then(Vec::new);
-        self
+        if keep {
+            let qos = topics::TRACKED.qos(mode);
+            let port = TopicSubscriber::create(run, node, topics::TRACKED.name, &qos)?;
+            self.tracked = Some((port, BTreeMap::new()));
+        }
+        Ok(self)
     }
 
     /// Takes in what arrived; returns the number of new poses.
@@ -118,6 +138,13 @@ impl<S: Service> Recorder<S> {
                 new += 1;
             }
         }
+        if let Some((port, views)) = &mut self.tracked {
+            while let Some(sample) = port.receive()? {
+                let mut view = FrameView::default();
+                WireTrackedFeature::view(sample.payload(), &mut view);
+                views.insert(sample.user_header().frame_id, view);
+            }
+        }
         while let Some(sample) = self.maps.receive()? {
             self.profile
                 .record_stage(sample.user_header(), Stage::Mapper);
@@ -126,13 +153,7 @@ impl<S: Service> Recorder<S> {
                 let frame = sample.user_header().frame_id;
                 match decode_message::<MapUpdate>(sample.payload(), MAX_VARIABLE_MESSAGE_BYTES) {
                     Ok(update) if update.keyframe.is_some() => {
-                        let mut scene = update.map.scene();
-                        if let [Some(a), Some(b), Some(c)] =
-                            [0, 1, 2].map(|k| update.manhattan.axis(k))
-                        {
-                            scene.axes = Some([a, b, c]);
-                        }
-                        scenes.push((frame, scene));
+                        scenes.push((frame, update.scene()));
                     }
                     Ok(_) => {}
                     Err(e) => tracing::warn!(frame, "recorder: cannot decode a local map: {e}"),
@@ -153,6 +174,13 @@ impl<S: Service> Recorder<S> {
     /// True once frame `last` has a pose (the last input frame).
     pub fn has(&self, last: u64) -> bool {
         self.received.contains_key(&last)
+    }
+
+    /// True when frame `frame`'s matches came, or none are kept.
+    pub fn has_view(&self, frame: u64) -> bool {
+        self.tracked
+            .as_ref()
+            .is_none_or(|(_, views)| views.contains_key(&frame))
     }
 
     /// Number of frames with a pose.
@@ -188,6 +216,14 @@ impl<S: Service> Recorder<S> {
     /// The scenes kept (taken out; empty unless [`Self::keeping_scenes`]).
     pub fn take_scenes(&mut self) -> Scenes {
         self.scenes.take().unwrap_or_default()
+    }
+
+    /// The frames' matches kept (taken out; empty unless [`Self::keeping_scenes`]).
+    pub fn take_views(&mut self) -> FrameViews {
+        self.tracked
+            .as_mut()
+            .map(|(_, views)| std::mem::take(views))
+            .unwrap_or_default()
     }
 
     /// The frames' anchors received (taken out).

@@ -163,6 +163,11 @@ impl TrackingSession {
         })
     }
 
+    /// The last frame's matches, inliers and outliers, for a viewer.
+    pub fn last_matches(&self) -> Option<crate::tracking::tracker::FrameMatches<'_>> {
+        self.tracker.last_matches()
+    }
+
     /// The map the tracker tracks against (the neighbourhood the mapping half sent).
     pub fn map(&self) -> &Map {
         &self.map

@@ -14,7 +14,7 @@ mod planes;
 mod strategies;
 mod tracked_frame;
 
-pub use tracked_frame::TrackedFrame;
+pub use tracked_frame::{FrameMatches, TrackedFrame};
 
 use crate::config::TrackingConfig;
 use crate::depth::alignment::DepthAssociator;
@@ -187,6 +187,14 @@ impl Tracker {
                     .jitter
                     .covariance_with(&frame.camera_from_world, frame.features.timestamp),
             )
+        })
+    }
+
+    /// The last frame's matches, inliers and outliers (`None` before the first frame).
+    pub fn last_matches(&self) -> Option<FrameMatches<'_>> {
+        self.last.as_ref().map(|frame| FrameMatches {
+            frame,
+            solver: &self.solver,
         })
     }
 

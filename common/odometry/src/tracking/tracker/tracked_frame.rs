@@ -1,8 +1,8 @@
 //! The tracker's per-frame result: the pose, how it was obtained, and the landmark
-//! each feature was matched to.
+//! each feature was matched to; and what a viewer draws of it ([`FrameMatches`]).
 
 use crate::frontend::features::FrameFeatures;
-use crate::tracking::pose_solver::Inliers;
+use crate::tracking::pose_solver::{Inliers, PoseSolver};
 use crate::tracking::status::TrackingStatus;
 use gfs_core::ids::{MapLineId, MapPlaneId, MapPointId};
 use nalgebra::Isometry3;
@@ -47,5 +47,40 @@ impl TrackedFrame {
         self.point_ids.iter_mut().for_each(|m| *m = None);
         self.line_ids.iter_mut().for_each(|m| *m = None);
         self.plane_ids.iter_mut().for_each(|m| *m = None);
+    }
+}
+
+/// The last tracked frame as a viewer draws it: each matched keypoint and line, inlier
+/// of the frame's pose or rejected by its last optimisation (an outlier).
+#[derive(Clone, Copy, Debug)]
+pub struct FrameMatches<'a> {
+    /// The frame, with its inlier matches.
+    pub frame: &'a TrackedFrame,
+    pub(super) solver: &'a PoseSolver,
+}
+
+impl FrameMatches<'_> {
+    /// `(keypoint index, inlier)` of the matched keypoints: the inliers first.
+    pub fn points(&self) -> impl Iterator<Item = (usize, bool)> + '_ {
+        let ids = &self.frame.point_ids;
+        let inliers = ids.iter().enumerate().filter(|(_, id)| id.is_some());
+        let rejected = self.solver.rejected_points(self.frame.features.id);
+        inliers.map(|(i, _)| (i, true)).chain(
+            rejected
+                .filter(|&i| ids.get(i) == Some(&None))
+                .map(|i| (i, false)),
+        )
+    }
+
+    /// `(line index, inlier)` of the matched lines, as [`Self::points`].
+    pub fn lines(&self) -> impl Iterator<Item = (usize, bool)> + '_ {
+        let ids = &self.frame.line_ids;
+        let inliers = ids.iter().enumerate().filter(|(_, id)| id.is_some());
+        let rejected = self.solver.rejected_lines(self.frame.features.id);
+        inliers.map(|(i, _)| (i, true)).chain(
+            rejected
+                .filter(|&i| ids.get(i) == Some(&None))
+                .map(|i| (i, false)),
+        )
     }
 }

@@ -10,6 +10,7 @@ mod inline;
 pub mod map_file;
 mod map_png;
 
+use super::frame_visuals::FrameVisuals;
 use crate::CliResult;
 use crate::bench::stats::Summary;
 use crate::config::Config;
@@ -135,6 +136,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let mut tracker_map = None;
     let mut scene = None;
     let mut keyframe_scenes = Vec::new();
+    let mut frame_views = pipeline::FrameViews::new();
     let mut map_counts = None;
     let (poses, odometry, loops, processed, timings, keyframes, restarts, covariances) = if args
         .mode
@@ -245,6 +247,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
                 .map(gfs_odometry::map::Map::scene);
         }
         keyframe_scenes = keyframe_stamps(outcome.scenes, timestamps);
+        frame_views = outcome.views;
         let timings = Timings::Pipeline(outcome.profile.summary());
         if !outcome.leftovers.is_empty() {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
@@ -279,13 +282,19 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             restarts: &stage_restarts,
             stamps: &[],
             scenes: &keyframe_scenes,
+            frames: Some(FrameVisuals::of_run(
+                &config,
+                &dataset,
+                sequence.as_ref(),
+                &frame_views,
+            )?),
         };
         super::ros2_io::record_mcap(
             path,
             &config,
             &odometry,
             &covariances,
-            &details,
+            details,
             args.mcap_compression,
         )?;
     }
