@@ -39,9 +39,16 @@ fn floats(data: &[u8]) -> Vec<f32> {
 
 #[test]
 fn landmarks_are_x_y_z_rgb_float32_in_odom_without_invalid_points() {
-    let cloud = Visualiser::new(&Ros2Config::default()).landmarks(&scene(), 12.5);
+    let cloud = Visualiser::new(&Ros2Config::default())
+        .landmarks(&scene(), Stamp::from_nanos(12_500_000_001));
     assert_eq!(cloud.header.frame_id, "odom");
-    assert_eq!(cloud.header.stamp, Time::from_secs(12.5));
+    assert_eq!(
+        cloud.header.stamp,
+        Time {
+            sec: 12,
+            nanosec: 500_000_001
+        }
+    );
     let layout: Vec<(&str, u32, u8, u32)> = cloud
         .fields
         .iter()
@@ -84,7 +91,7 @@ fn landmarks_are_x_y_z_rgb_float32_in_odom_without_invalid_points() {
 
 #[test]
 fn structure_has_lines_planes_and_axes_coloured_by_axis() {
-    let markers = Visualiser::new(&Ros2Config::default()).structure(&scene(), 1.0);
+    let markers = Visualiser::new(&Ros2Config::default()).structure(&scene(), Stamp::default());
     let by_ns = |ns: &str| markers.markers.iter().find(|m| m.ns == ns).unwrap();
     let lines = by_ns("lines");
     assert_eq!(
@@ -127,27 +134,30 @@ fn structure_has_lines_planes_and_axes_coloured_by_axis() {
 #[test]
 fn paths_hold_base_poses_in_their_frames() {
     let visualiser = Visualiser::new(&Ros2Config::default());
-    let keyframes = visualiser.keyframes(&scene(), 2.0);
+    let keyframes = visualiser.keyframes(&scene(), Stamp::default());
     assert_eq!(keyframes.header.frame_id, "map");
     assert_eq!(keyframes.poses.len(), 2);
     // 0.5 m along the optical axis: 0.5 m forward (x) of the base, no rotation.
     let p = keyframes.poses[1].pose;
     assert!((p.position.x - 0.5).abs() < 1e-12 && p.position.y.abs() < 1e-12);
     assert!((p.orientation.w.abs() - 1.0).abs() < 1e-12);
-    let poses: Vec<(f64, Isometry3<f64>)> = (0..3)
+    let poses: Vec<(Stamp, Isometry3<f64>)> = (0..3)
         .map(|k| {
             (
-                10.0 + f64::from(k) / 30.0,
+                Stamp::from_nanos(10_000_000_000 + i64::from(k) * 33_333_333),
                 Isometry3::translation(0.0, 0.0, 0.1 * f64::from(k)),
             )
         })
         .collect();
-    let path = visualiser.path(&poses, 10.1);
+    let path = visualiser.path(&poses, poses[2].0);
     assert_eq!(path.header.frame_id, "odom");
     assert_eq!(path.poses.len(), 3);
     assert_eq!(
         path.poses[2].header.stamp,
-        Time::from_secs(10.0 + 2.0 / 30.0)
+        Time {
+            sec: 10,
+            nanosec: 66_666_666
+        }
     );
     let mut bytes = Vec::new();
     encode_into(&path, "Path", &mut bytes).unwrap();
