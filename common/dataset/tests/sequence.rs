@@ -352,7 +352,14 @@ fn nine_digit_stamps_reach_the_frames_and_the_trajectory_exactly() {
     for (k, stamp) in stamps.iter().enumerate() {
         rgb += &format!("{stamp} rgb/{k}.png\n");
         depth += &format!("{stamp} depth/{k}.png\n");
-        write_rgb(dir.path(), &format!("rgb/{k}.png"), W, H, k, ImageFormat::Png);
+        write_rgb(
+            dir.path(),
+            &format!("rgb/{k}.png"),
+            W,
+            H,
+            k,
+            ImageFormat::Png,
+        );
         write_depth16(dir.path(), &format!("depth/{k}.png"), W, H, k);
     }
     dir.write("rgb.txt", &rgb);
@@ -360,7 +367,10 @@ fn nine_digit_stamps_reach_the_frames_and_the_trajectory_exactly() {
     let seq = Sequence::open(dir.path(), &camera(0.0), &DepthConfig::default()).unwrap();
     let listed: Vec<String> = seq.timestamps().iter().map(|s| s.to_string()).collect();
     assert_eq!(listed, stamps);
-    assert_eq!(seq.load(1).unwrap().timestamp.nanos(), 1_305_031_102_156_790_123);
+    assert_eq!(
+        seq.load(1).unwrap().timestamp.nanos(),
+        1_305_031_102_156_790_123
+    );
     let mut trajectory = gfs_dataset::Trajectory::new();
     for &stamp in seq.timestamps() {
         trajectory.push(stamp, nalgebra::Isometry3::identity());

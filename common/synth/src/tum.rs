@@ -169,6 +169,14 @@ impl SynthSequence {
                  photometric_sigma = 0.4\nkeyframe_reference = true\n",
             );
         }
+        let imu = self.imu_texts();
+        if let Some((_, table)) = &imu {
+            marker.push_str(table);
+        }
+        if let Some((list, _)) = imu {
+            let path = dir.join("imu.txt");
+            fs::write(&path, list).map_err(io(path))?;
+        }
         for (file, text) in [
             ("rgb.txt", rgb),
             ("depth.txt", depth),
