@@ -15,6 +15,7 @@
 mod common;
 
 use common::in_process::InProcess;
+use gfs_core::stamp::Stamp;
 use gfs_dataset::{EVO_MAX_DIFF_S, Trajectory, evaluate};
 use gfs_odometry::{FinalTrajectory, FramePose, OdometryConfig};
 use gfs_synth::{SynthConfig, SynthSequence, TrajectoryKind};
@@ -63,7 +64,7 @@ impl Run {
     }
 }
 
-fn ate(truth: &Trajectory, poses: impl Iterator<Item = (f64, Isometry3<f64>)>) -> f64 {
+fn ate(truth: &Trajectory, poses: impl Iterator<Item = (Stamp, Isometry3<f64>)>) -> f64 {
     let mut estimate = Trajectory::new();
     for (t, pose) in poses {
         estimate.push(t, pose);

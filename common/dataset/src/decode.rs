@@ -9,6 +9,7 @@ use crate::error::DatasetError;
 use crate::lists::{Entry, ImageRef};
 use gfs_core::camera::UndistortMap;
 use gfs_core::ids::FrameId;
+use gfs_core::stamp::Stamp;
 use gfs_core::{DepthImage, GrayImage, Image, RgbImage};
 use image::codecs::jpeg::JpegDecoder;
 use image::codecs::png::PngDecoder;
@@ -22,8 +23,8 @@ use std::sync::Arc;
 pub struct Frame {
     /// Index in the sequence (0-based, in input order).
     pub id: FrameId,
-    /// Colour timestamp, s.
-    pub timestamp: f64,
+    /// Colour capture stamp, exactly as listed.
+    pub timestamp: Stamp,
     /// Colour, undistorted (bilinear) when the camera has distortion.
     pub rgb: RgbImage,
     /// Gray from `rgb`, ITU-R BT.601 weights, rounded.
@@ -37,7 +38,7 @@ impl Frame {
     fn empty() -> Self {
         Self {
             id: FrameId(0),
-            timestamp: 0.0,
+            timestamp: Stamp::default(),
             rgb: Image::new(0, 0),
             gray: Image::new(0, 0),
             depth: Image::new(0, 0),

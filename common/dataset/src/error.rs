@@ -40,10 +40,10 @@ pub enum DatasetError {
         path: PathBuf,
         /// 1-based line number.
         line: usize,
-        /// The timestamp of this line, s.
-        timestamp: f64,
-        /// The timestamp of the previous frame, s.
-        previous: f64,
+        /// The timestamp of this line.
+        timestamp: gfs_core::stamp::Stamp,
+        /// The timestamp of the previous frame.
+        previous: gfs_core::stamp::Stamp,
     },
     /// The folder holds no frame: empty lists, or no colour image with a depth image within
     /// the association window.

@@ -21,6 +21,7 @@
 //! `RPE_ij = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j)`, reported as translation norm and angle.
 //!
 //! ```
+//! use gfs_core::stamp::Stamp;
 //! use gfs_dataset::{Trajectory, evaluate, EVO_MAX_DIFF_S};
 //! use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 //! let mut gt = Trajectory::new();
@@ -29,8 +30,10 @@
 //! for k in 0..50 {
 //!     let t = k as f64 / 30.0;
 //!     let pose = Isometry3::translation(t.cos(), t.sin(), 0.1 * t);
-//!     gt.push(t, pose);
-//!     est.push(t + 0.002, moved * pose); // the same motion in another world frame
+//!     let stamp = Stamp::from_nanos(k * 33_333_333);
+//!     gt.push(stamp, pose);
+//!     // The same motion in another world frame, stamped 2 ms later.
+//!     est.push(Stamp::from_nanos(stamp.nanos() + 2_000_000), moved * pose);
 //! }
 //! let eval = evaluate(&gt, &est, EVO_MAX_DIFF_S)?;
 //! assert_eq!(eval.matched(), 50);

@@ -2,6 +2,7 @@
 //! the TUM association rule that pairs colour and depth images by timestamp.
 
 use crate::error::DatasetError;
+use gfs_core::stamp::Stamp;
 use std::path::{Path, PathBuf};
 
 /// Largest colour-depth stamp difference the TUM tools associate (`associate.py`
@@ -11,8 +12,8 @@ pub const TUM_MAX_DIFFERENCE_S: f64 = 0.02;
 /// Where one image comes from: its file and the list line that names it.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct ImageRef {
-    /// Timestamp, s.
-    pub stamp: f64,
+    /// Capture stamp, exactly as listed.
+    pub stamp: Stamp,
     /// Image file (folder joined with the listed relative path).
     pub path: PathBuf,
     /// List file that names it.
@@ -109,22 +110,19 @@ fn data_lines(text: &str) -> impl Iterator<Item = (usize, &str, Vec<&str>)> {
     })
 }
 
-fn parse_stamp(field: &str, path: &Path, line: usize, text: &str) -> Result<f64, DatasetError> {
-    match field.parse::<f64>() {
-        Ok(t) if t.is_finite() => Ok(t),
-        _ => Err(DatasetError::MalformedLine {
-            path: path.to_path_buf(),
-            line,
-            reason: "timestamp is not a finite number",
-            text: text.to_owned(),
-        }),
-    }
+fn parse_stamp(field: &str, path: &Path, line: usize, text: &str) -> Result<Stamp, DatasetError> {
+    field.parse().map_err(|_| DatasetError::MalformedLine {
+        path: path.to_path_buf(),
+        line,
+        reason: "timestamp is not decimal seconds",
+        text: text.to_owned(),
+    })
 }
 
 /// Checks that `stamp` is larger than the previous one and remembers it.
 fn check_increasing(
-    previous: &mut Option<f64>,
-    stamp: f64,
+    previous: &mut Option<Stamp>,
+    stamp: Stamp,
     path: &Path,
     line: usize,
 ) -> Result<(), DatasetError> {
@@ -212,23 +210,28 @@ fn read_associations(dir: &Path, path: &Path) -> Result<Vec<Entry>, DatasetError
 /// Pairs two increasing stamp lists as TUM's `associate.py` does: among all pairs closer
 /// than `max_difference`, repeatedly take the closest pair whose two stamps are both
 /// still free. Returns `(index in first, index in second)` sorted by the first index.
-pub fn associate_tum(first: &[f64], second: &[f64], max_difference: f64) -> Vec<(usize, usize)> {
+pub fn associate_tum(
+    first: &[Stamp],
+    second: &[Stamp],
+    max_difference_s: f64,
+) -> Vec<(usize, usize)> {
+    let max_difference = (max_difference_s * 1e9).round() as i64;
     let mut candidates = Vec::new();
     let mut lo = 0;
-    for (i, &a) in first.iter().enumerate() {
-        while lo < second.len() && second[lo] <= a - max_difference {
+    for (i, a) in first.iter().map(|s| s.nanos()).enumerate() {
+        while lo < second.len() && second[lo].nanos() <= a - max_difference {
             lo += 1;
         }
         let mut j = lo;
-        while j < second.len() && second[j] < a + max_difference {
-            let diff = (a - second[j]).abs();
+        while j < second.len() && second[j].nanos() < a + max_difference {
+            let diff = (a - second[j].nanos()).abs();
             if diff < max_difference {
                 candidates.push((diff, i, j));
             }
             j += 1;
         }
     }
-    candidates.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+    candidates.sort_unstable();
     let mut first_used = vec![false; first.len()];
     let mut second_used = vec![false; second.len()];
     let mut pairs = Vec::new();
@@ -247,11 +250,18 @@ pub fn associate_tum(first: &[f64], second: &[f64], max_difference: f64) -> Vec<
 mod tests {
     use super::*;
 
+    fn stamps(seconds: &[f64]) -> Vec<Stamp> {
+        seconds
+            .iter()
+            .map(|&s| Stamp::from_secs(s).unwrap())
+            .collect()
+    }
+
     #[test]
     fn tum_association_takes_the_closest_free_pairs_within_20_ms() {
         // Depth runs 5 ms late with one dropped depth frame and one far-off stamp.
-        let rgb = [0.0, 0.033, 0.066, 0.100, 0.133];
-        let depth = [0.005, 0.038, 0.105, 0.160];
+        let rgb = stamps(&[0.0, 0.033, 0.066, 0.100, 0.133]);
+        let depth = stamps(&[0.005, 0.038, 0.105, 0.160]);
         let pairs = associate_tum(&rgb, &depth, TUM_MAX_DIFFERENCE_S);
         // 0.066 has no depth within 20 ms once 0.105 is taken by the closer 0.100;
         // 0.133 - 0.160 = 27 ms is too far.
@@ -262,9 +272,17 @@ mod tests {
     fn tum_association_is_greedy_over_the_whole_list() {
         // 0.010 is 8 ms from depth 0.018 and would take it in a per-frame scan, but
         // 0.020 is closer (2 ms) so it wins; 0.010 then takes 0.000 (10 ms).
-        let pairs = associate_tum(&[0.010, 0.020], &[0.000, 0.018], TUM_MAX_DIFFERENCE_S);
+        let pairs = associate_tum(
+            &stamps(&[0.010, 0.020]),
+            &stamps(&[0.000, 0.018]),
+            TUM_MAX_DIFFERENCE_S,
+        );
         assert_eq!(pairs, vec![(0, 0), (1, 1)]);
-        let pairs = associate_tum(&[0.010, 0.020], &[0.018], TUM_MAX_DIFFERENCE_S);
+        let pairs = associate_tum(
+            &stamps(&[0.010, 0.020]),
+            &stamps(&[0.018]),
+            TUM_MAX_DIFFERENCE_S,
+        );
         assert_eq!(pairs, vec![(1, 0)]);
     }
 }

@@ -6,6 +6,7 @@ use crate::error::DatasetError;
 use crate::lists::{Entry, read_entries};
 use crate::reader::FrameReader;
 use gfs_core::camera::{Camera, UndistortMap};
+use gfs_core::stamp::Stamp;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -40,7 +41,7 @@ pub const DEFAULT_READ_AHEAD: usize = 3;
 pub struct Sequence {
     dir: PathBuf,
     entries: Arc<[Entry]>,
-    timestamps: Vec<f64>,
+    timestamps: Vec<Stamp>,
     size: (usize, usize),
     depth: DepthConfig,
     undistort: Option<Arc<UndistortMap>>,
@@ -95,8 +96,8 @@ impl Sequence {
         &self.dir
     }
 
-    /// Colour timestamps in seconds, in frame order.
-    pub fn timestamps(&self) -> &[f64] {
+    /// Colour capture stamps, in frame order.
+    pub fn timestamps(&self) -> &[Stamp] {
         &self.timestamps
     }
 

@@ -36,6 +36,7 @@ fn walk(n: usize, reported_scale: f64) -> (Trajectory, Trajectory, Covariances) 
         (Trajectory::new(), Trajectory::new(), Covariances::new());
     for k in 0..n {
         let t = k as f64 / 30.0;
+        let stamp = gfs_core::stamp::Stamp::from_secs(t).unwrap();
         let pose = Isometry3::from_parts(
             Translation3::new(0.3 * t, (0.7 * t).sin(), 0.2 * (0.3 * t).cos()),
             UnitQuaternion::from_scaled_axis(Vector3::new(0.2 * (0.5 * t).sin(), 0.35 * t, 0.1)),
@@ -43,9 +44,9 @@ fn walk(n: usize, reported_scale: f64) -> (Trajectory, Trajectory, Covariances) 
         let factor = random_factor(&mut rng);
         let z = Vector6::from_fn(|_, _| rng.gaussian());
         let error = factor * z;
-        gt.push(t, pose);
-        est.push(t, other_world * pose * se3::exp(&error));
-        covariances.push(t, factor * factor.transpose() * reported_scale);
+        gt.push(stamp, pose);
+        est.push(stamp, other_world * pose * se3::exp(&error));
+        covariances.push(stamp, factor * factor.transpose() * reported_scale);
     }
     (gt, est, covariances)
 }

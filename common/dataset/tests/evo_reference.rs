@@ -54,7 +54,7 @@ fn perturbed(gt: &Trajectory) -> Trajectory {
             pose.rotation * UnitQuaternion::from_scaled_axis(rot_drift + rng.vec3(0.004));
         let position = pose.translation.vector + drift + rng.vec3(0.008);
         est.push(
-            t + 0.003,
+            gfs_core::stamp::Stamp::from_nanos(t.nanos() + 3_000_000),
             world * Isometry3::from_parts(Translation3::from(position), rotation),
         );
     }

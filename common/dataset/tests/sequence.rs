@@ -132,7 +132,7 @@ fn a_tum_folder_without_associations_is_associated_and_decoded() {
     let dir = tum_folder("plain", 4);
     let seq = Sequence::open(dir.path(), &camera(0.0), &DepthConfig::default()).unwrap();
     assert_eq!(seq.len(), 4);
-    assert!((seq.timestamps()[1] - (10.0 + 1.0 / 30.0)).abs() < 1e-6);
+    assert!((seq.timestamps()[1].secs() - (10.0 + 1.0 / 30.0)).abs() < 1e-6);
     assert_eq!(seq.ground_truth_path(), None);
     let f = seq.load(2).unwrap();
     assert_eq!(f.id.0, 2);
@@ -341,4 +341,47 @@ fn bad_images_are_error_items_and_the_iteration_goes_on() {
         let msg = item.as_ref().unwrap_err().to_string();
         assert!(msg.contains(dir.path().to_str().unwrap()), "{msg}");
     }
+}
+
+#[test]
+fn nine_digit_stamps_reach_the_frames_and_the_trajectory_exactly() {
+    let dir = TempDir::new("nanos");
+    let stamps = ["1305031102.123456789", "1305031102.156790123"];
+    let mut rgb = String::new();
+    let mut depth = String::new();
+    for (k, stamp) in stamps.iter().enumerate() {
+        rgb += &format!("{stamp} rgb/{k}.png\n");
+        depth += &format!("{stamp} depth/{k}.png\n");
+        write_rgb(
+            dir.path(),
+            &format!("rgb/{k}.png"),
+            W,
+            H,
+            k,
+            ImageFormat::Png,
+        );
+        write_depth16(dir.path(), &format!("depth/{k}.png"), W, H, k);
+    }
+    dir.write("rgb.txt", &rgb);
+    dir.write("depth.txt", &depth);
+    let seq = Sequence::open(dir.path(), &camera(0.0), &DepthConfig::default()).unwrap();
+    let listed: Vec<String> = seq.timestamps().iter().map(|s| s.to_string()).collect();
+    assert_eq!(listed, stamps);
+    assert_eq!(
+        seq.load(1).unwrap().timestamp.nanos(),
+        1_305_031_102_156_790_123
+    );
+    let mut trajectory = gfs_dataset::Trajectory::new();
+    for &stamp in seq.timestamps() {
+        trajectory.push(stamp, nalgebra::Isometry3::identity());
+    }
+    let mut text = Vec::new();
+    trajectory.write_tum_to(&mut text).unwrap();
+    let firsts: Vec<String> = String::from_utf8(text)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(' ').next().unwrap().to_owned())
+        .collect();
+    assert_eq!(firsts, stamps);
 }

@@ -6,6 +6,7 @@
 //! beside the payload in shared memory and is read without touching the payload.
 
 use gfs_core::ids::FrameId;
+use gfs_core::stamp::Stamp;
 use iceoryx2::prelude::ZeroCopySend;
 
 use crate::clock::monotonic_ns;
@@ -117,20 +118,26 @@ fn span(from: u64, to: u64) -> Option<u64> {
 pub struct MsgHeader {
     /// Input frame index ([`FrameId`] value).
     pub frame_id: u64,
-    /// Capture timestamp of the frame in seconds (dataset / sensor clock).
-    pub capture_time_s: f64,
+    /// Capture stamp of the frame (dataset / sensor clock), integer nanoseconds since
+    /// the epoch ([`Stamp::nanos`]): exact, as the source gave it.
+    pub capture_stamp_ns: i64,
     /// Stamps indexed by [`Stage::index`].
     pub stamps: [StageStamp; Stage::COUNT],
 }
 
 impl MsgHeader {
-    /// A header for frame `frame_id` captured at `capture_time_s`, with no stamp.
-    pub fn new(frame_id: FrameId, capture_time_s: f64) -> Self {
+    /// A header for frame `frame_id` captured at `capture`, with no stage stamp.
+    pub fn new(frame_id: FrameId, capture: Stamp) -> Self {
         Self {
             frame_id: frame_id.0,
-            capture_time_s,
+            capture_stamp_ns: capture.nanos(),
             stamps: [StageStamp::default(); Stage::COUNT],
         }
+    }
+
+    /// The capture stamp.
+    pub fn capture_stamp(&self) -> Stamp {
+        Stamp::from_nanos(self.capture_stamp_ns)
     }
 
     /// The frame id as its typed id.
@@ -207,10 +214,10 @@ mod tests {
 
     #[test]
     fn merge_keeps_own_stamps_and_fills_missing() {
-        let mut a = MsgHeader::new(FrameId(7), 1.5);
+        let mut a = MsgHeader::new(FrameId(7), Stamp::from_nanos(1_500_000_000));
         a.stamp_mut(Stage::Source).finished_ns = 10;
         a.stamp_mut(Stage::Points).finished_ns = 20;
-        let mut b = MsgHeader::new(FrameId(7), 1.5);
+        let mut b = MsgHeader::new(FrameId(7), Stamp::from_nanos(1_500_000_000));
         b.stamp_mut(Stage::Points).finished_ns = 99;
         b.stamp_mut(Stage::Lines).finished_ns = 30;
         a.merge_stamps(&b);
@@ -221,7 +228,7 @@ mod tests {
 
     #[test]
     fn spans_need_both_stamps() {
-        let mut h = MsgHeader::new(FrameId(1), 0.0);
+        let mut h = MsgHeader::new(FrameId(1), Stamp::default());
         assert_eq!(h.end_to_end_ns(), None);
         *h.stamp_mut(Stage::Source) = StageStamp {
             received_ns: 100,

@@ -67,7 +67,7 @@
 //! let subscriber = TopicSubscriber::<local::Service, u8>::create(&run, &node, topic, &qos)?;
 //!
 //! let (gray, depth) = (Image::<u8>::new(64, 48), Image::<f32>::new(64, 48));
-//! let mut header = MsgHeader::new(FrameId(0), 0.033);
+//! let mut header = MsgHeader::new(FrameId(0), Stamp::from_nanos(33_000_000));
 //! header.mark_finished(Stage::Source);
 //! let images = FrameImages { gray: gray.view(), depth: depth.view(), rgb: None };
 //! publisher.publish_frame(&header, &images)?;

@@ -4,6 +4,7 @@
 use std::time::Duration;
 
 use gfs_core::ids::FrameId;
+use gfs_core::stamp::Stamp;
 use gfs_core::{Image, ImageView};
 use gfs_ipc::{
     FrameImages, FrameLayout, IpcRun, Mode, MsgHeader, RunId, Stage, StageStamp, TopicKind,
@@ -60,7 +61,10 @@ fn fixture(w: usize, h: usize, k: usize) -> Fixture {
 }
 
 fn stamped_header(k: u64) -> MsgHeader {
-    let mut h = MsgHeader::new(FrameId(k), 1_305_031_102.175 + k as f64 / 30.0);
+    let mut h = MsgHeader::new(
+        FrameId(k),
+        Stamp::from_nanos(1_305_031_102_175_000_000 + k as i64 * 33_333_333),
+    );
     *h.stamp_mut(Stage::Source) = StageStamp {
         received_ns: 1_000 + k,
         started_ns: 2_000 + k,

@@ -13,6 +13,7 @@ use std::process::{Child, ChildStdout, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use gfs_core::ids::FrameId;
+use gfs_core::stamp::Stamp;
 use gfs_ipc::{
     IpcRun, Mode, MsgHeader, RunId, Stage, TopicKind, TopicPublisher, TopicQos, TopicSubscriber,
     ipc,
@@ -41,7 +42,7 @@ fn child(role: &str, run_id: &str) {
     let publisher = TopicPublisher::<ipc::Service, u32>::create(&run, &node, "points", &qos(), 64)
         .expect("child publisher");
     publisher
-        .publish_slice(&MsgHeader::new(FrameId(0), 0.0), &[1, 2, 3])
+        .publish_slice(&MsgHeader::new(FrameId(0), Stamp::default()), &[1, 2, 3])
         .expect("child publish");
     println!("ready");
     if role == "restart" {
@@ -107,7 +108,10 @@ fn sigkill_leaves_resources_until_cleanup() {
         let (mut stage, _) = spawn_stage(&run, "sleep");
         // The child's subscriber holds a frame in its queue when it dies.
         let reached = frames
-            .publish_slice(&MsgHeader::new(FrameId(1), 0.1), &[7; 16])
+            .publish_slice(
+                &MsgHeader::new(FrameId(1), Stamp::from_nanos(100_000_000)),
+                &[7; 16],
+            )
             .unwrap();
         assert_eq!(reached, 1);
         let points = |alive| ("points".to_string(), alive);
@@ -136,7 +140,10 @@ fn sigkill_leaves_resources_until_cleanup() {
 
         // The survivor keeps publishing; the dead subscriber is gone.
         let reached = frames
-            .publish_slice(&MsgHeader::new(FrameId(2), 0.2), &[8; 16])
+            .publish_slice(
+                &MsgHeader::new(FrameId(2), Stamp::from_nanos(200_000_000)),
+                &[8; 16],
+            )
             .unwrap();
         assert_eq!(reached, 0);
         let report = run.cleanup_dead_nodes::<ipc::Service>().unwrap();
@@ -167,7 +174,10 @@ fn sigterm_is_a_clean_exit() {
             TopicPublisher::<ipc::Service, u32>::create(&run, &node, "frame", &qos(), 64).unwrap();
         let (mut stage, _) = spawn_stage(&run, "loop");
         frames
-            .publish_slice(&MsgHeader::new(FrameId(1), 0.1), &[7; 16])
+            .publish_slice(
+                &MsgHeader::new(FrameId(1), Stamp::from_nanos(100_000_000)),
+                &[7; 16],
+            )
             .unwrap();
         let pid = i32::try_from(stage.id()).unwrap();
         // SAFETY: sending a signal to our own child process by pid has no memory effects.

@@ -14,9 +14,15 @@ use crate::tracking::tracker::TrackedFrame;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{FrameId, KeyFrameId};
 use gfs_core::rng::SplitMix64;
+use gfs_core::stamp::Stamp;
 use gfs_lines::{DetectedLine, Line3, Segment};
 use gfs_points::KeyPoint;
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+
+/// The stamp of frame `k` of a 30 Hz camera.
+pub fn frame_stamp(k: u64) -> Stamp {
+    Stamp::from_nanos(k as i64 * 1_000_000_000 / 30)
+}
 
 /// The camera of the fixtures (TUM-like, 640x480).
 pub fn camera() -> PinholeCamera {
@@ -230,7 +236,7 @@ impl Scene {
         }
         FrameFeatures {
             id: FrameId(id),
-            timestamp: id as f64 / 30.0,
+            timestamp: frame_stamp(id),
             point_descriptors: (0..self.points.len() as u64)
                 .map(|i| descriptor(1, i))
                 .collect(),

@@ -3,6 +3,7 @@
 //! stable iceoryx2 type name that both ends agree on.
 
 use gfs_core::ids::{FrameId, KeyFrameId};
+use gfs_core::stamp::Stamp;
 use gfs_ipc::ZeroCopySend;
 use gfs_lines::{DetectedLine, Line3, Segment};
 use gfs_odometry::{FrameAnchor, FramePose, TrackingStatus};
@@ -174,8 +175,8 @@ impl WireManhattan {
 pub struct WirePose {
     /// Frame id.
     pub frame_id: u64,
-    /// Capture time, seconds.
-    pub timestamp: f64,
+    /// Capture stamp, integer nanoseconds since the epoch ([`Stamp::nanos`]).
+    pub stamp_ns: i64,
     /// `world_from_camera` translation, metres.
     pub translation: [f64; 3],
     /// `world_from_camera` rotation as a unit quaternion (x, y, z, w).
@@ -211,7 +212,7 @@ impl WirePose {
         let p = predicted.map_or([0.0; 4], |r| [r.i, r.j, r.k, r.w]);
         Self {
             frame_id: pose.id.0,
-            timestamp: pose.timestamp,
+            stamp_ns: pose.timestamp.nanos(),
             translation: [t.x, t.y, t.z],
             rotation: [q.x, q.y, q.z, q.w],
             predicted_rotation: p,
@@ -297,13 +298,13 @@ impl WirePose {
             _ => return None,
         };
         let rotation = unit_quaternion(&self.rotation)?;
-        if !self.translation.iter().all(|v| v.is_finite()) || !self.timestamp.is_finite() {
+        if !self.translation.iter().all(|v| v.is_finite()) {
             return None;
         }
         let [x, y, z] = self.translation;
         Some(FramePose {
             id: FrameId(self.frame_id),
-            timestamp: self.timestamp,
+            timestamp: Stamp::from_nanos(self.stamp_ns),
             world_from_camera: Isometry3::from_parts(Translation3::new(x, y, z), rotation),
             status,
         })
@@ -387,7 +388,7 @@ mod tests {
 
         let pose = FramePose {
             id: FrameId(7),
-            timestamp: 12.5,
+            timestamp: Stamp::from_nanos(12_500_000_001),
             world_from_camera: Isometry3::new(
                 nalgebra::Vector3::new(1.0, -2.0, 0.5),
                 nalgebra::Vector3::new(0.1, 0.2, -0.3),

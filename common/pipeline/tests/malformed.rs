@@ -3,6 +3,7 @@
 //! mapper stage as a thread over iceoryx2 local services.
 
 use gfs_core::ids::FrameId;
+use gfs_core::stamp::Stamp;
 use gfs_ipc::{
     IpcRun, MAX_VARIABLE_MESSAGE_BYTES, Mode, MsgHeader, RunId, Stage, TopicPublisher,
     TopicSubscriber, encode_message, local, topics,
@@ -38,7 +39,7 @@ fn request() -> KeyFrameRequest {
         frame: TrackedFrame {
             features: FrameFeatures {
                 id: FrameId(0),
-                timestamp: 1.0,
+                timestamp: Stamp::from_nanos(1_000_000_000),
                 keypoints,
                 point_descriptors: descriptors,
                 ..FrameFeatures::default()
@@ -98,7 +99,7 @@ fn the_mapper_drops_bad_keyframe_messages_and_answers_the_next_good_one() {
     .unwrap();
     let mut valid = Vec::new();
     encode_message(&MapRequest::KeyFrame(request()), &mut valid).unwrap();
-    let header = MsgHeader::new(FrameId(0), 1.0);
+    let header = MsgHeader::new(FrameId(0), Stamp::from_nanos(1_000_000_000));
     // Garbage until the mapper is subscribed (a message before that reaches no one).
     let deadline = Instant::now() + Duration::from_secs(20);
     while publisher.publish_slice(&header, &[0xFF; 3]).unwrap() == 0 {

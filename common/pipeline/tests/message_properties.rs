@@ -7,6 +7,7 @@
 
 use gfs_core::ids::{FrameId, MapLineId, MapPointId};
 use gfs_core::rng::SplitMix64;
+use gfs_core::stamp::Stamp;
 use gfs_ipc::{MAX_VARIABLE_MESSAGE_BYTES, decode_message, encode_message};
 use gfs_lines::{DetectedLine, Line3, Segment};
 use gfs_odometry::Sightings;
@@ -26,7 +27,7 @@ fn features(rng: &mut SplitMix64, id: u64) -> FrameFeatures {
     let descriptor = |rng: &mut SplitMix64| [0; 4].map(|_: u64| rng.next_u64());
     FrameFeatures {
         id: FrameId(id),
-        timestamp: id as f64 / 30.0,
+        timestamp: Stamp::from_nanos(id as i64 * 33_333_333),
         keypoints: (0..points)
             .map(|_| KeyPoint {
                 u: rng.range(0.0, 640.0) as f32,
@@ -138,8 +139,11 @@ fn break_request(r: &mut KeyFrameRequest, how: u64, rng: &mut SplitMix64) -> boo
             true
         }
         10 => {
-            f.features.timestamp = f64::NAN;
-            true
+            let n = f.features.keypoints.len();
+            n > 0 && {
+                f.features.keypoints[pick(rng, n)].depth = -1.0;
+                true
+            }
         }
         _ => {
             let n = f.features.lines.len();

@@ -110,10 +110,10 @@ fn retrieval_on_tum_fr1_rpy() {
     files.truncate(150);
     let truth = gfs_dataset::Trajectory::read_tum(&dir.join("groundtruth.txt")).expect("readable");
     let pose_at = |path: &std::path::Path| {
-        let t: f64 = path.file_stem()?.to_str()?.parse().ok()?;
+        let t: gfs_core::stamp::Stamp = path.file_stem()?.to_str()?.parse().ok()?;
         let i = truth.timestamps().partition_point(|&s| s < t);
         let i = i.min(truth.len() - 1);
-        ((truth.timestamps()[i] - t).abs() < 0.02).then(|| truth.poses()[i])
+        (truth.timestamps()[i].secs_since(t).abs() < 0.02).then(|| truth.poses()[i])
     };
     let v = Vocabulary::default_orb();
     let mut extractor = OrbExtractor::new(OrbConfig::default()).expect("default config");

@@ -108,11 +108,11 @@ fn error_over_time(area: &Area, eval: &Evaluation, lw: u32) -> Result<(), PlotEr
         ),
     )?;
     let times = eval.est_aligned.timestamps();
-    let t0 = times.first().copied().unwrap_or(0.0);
+    let t0 = times.first().copied().unwrap_or_default();
     let errors: Vec<(f64, f64)> = times
         .iter()
         .zip(&eval.ate.errors_m)
-        .map(|(t, e)| (t - t0, *e))
+        .map(|(t, e)| (t.secs_since(t0), *e))
         .collect();
     let t = range_of(errors.iter().map(|p| p.0), 1e-3, 0.0).unwrap_or((0.0, 1.0));
     let t = (t.0.max(0.0), t.1);
@@ -152,6 +152,7 @@ pub fn write_evaluation_png(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use gfs_core::stamp::Stamp;
     use gfs_dataset::{EVO_MAX_DIFF_S, Trajectory, evaluate};
     use nalgebra::Isometry3;
 
@@ -159,8 +160,9 @@ mod tests {
         let (mut gt, mut est) = (Trajectory::new(), Trajectory::new());
         for k in 0..100 {
             let a = k as f64 * 0.05;
-            gt.push(a, Isometry3::translation(a.cos(), a.sin(), 0.0));
-            est.push(a, Isometry3::translation(1.05 * a.cos(), a.sin(), 0.01 * a));
+            let t = Stamp::from_nanos(k * 50_000_000);
+            gt.push(t, Isometry3::translation(a.cos(), a.sin(), 0.0));
+            est.push(t, Isometry3::translation(1.05 * a.cos(), a.sin(), 0.01 * a));
         }
         evaluate(&gt, &est, EVO_MAX_DIFF_S).unwrap()
     }
@@ -201,7 +203,7 @@ mod tests {
                     w[0].0 + f * (w[1].0 - w[0].0),
                     w[0].1 + f * (w[1].1 - w[0].1),
                 );
-                let t = (k * 50 + s as usize) as f64 * 0.03;
+                let t = Stamp::from_nanos((k as i64 * 50 + i64::from(s)) * 30_000_000);
                 gt.push(t, Isometry3::translation(x, y, 0.0));
                 est.push(t, Isometry3::translation(x, y, 0.0));
             }

@@ -259,10 +259,10 @@ impl BagReader {
                 Some(Paired::Pair(colour, depth)) => return Ok(Some(BagFrame { colour, depth })),
                 Some(Paired::ColourWithoutDepth(stamp)) => {
                     tracing::warn!(
-                        "{}: {} at {:.6} s has no {} image within the slop; skipped",
+                        "{}: {} at {} s has no {} image within the slop; skipped",
                         self.path.display(),
                         self.topics.colour,
-                        stamp as f64 * 1e-9,
+                        Stamp::from_nanos(stamp),
                         self.topics.depth
                     );
                     continue;
@@ -422,7 +422,7 @@ fn decode(
     }
 }
 
-/// The colour stamps (seconds) of the frames of a bag and its camera info: a full pass
+/// The colour stamps of the frames of a bag and its camera info: a full pass
 /// over the bag, for the supervisor (frame count, timestamps of the trajectory).
 ///
 /// # Errors
@@ -431,11 +431,11 @@ pub fn scan(
     path: &Path,
     topics: &BagTopics,
     slop_s: f64,
-) -> Result<(Vec<f64>, CameraInfo), BagError> {
+) -> Result<(Vec<Stamp>, CameraInfo), BagError> {
     let mut reader = BagReader::open(path, topics, slop_s)?;
     let mut stamps = Vec::new();
     while let Some(frame) = reader.next_frame()? {
-        stamps.push(frame.colour.header().stamp.secs());
+        stamps.push(frame.colour.header().stamp.into());
     }
     match reader.camera_info.take() {
         Some(info) => Ok((stamps, info)),

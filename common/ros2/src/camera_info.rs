@@ -9,12 +9,12 @@ use gfs_core::camera::{Camera, CameraConfigError, Distortion, DistortionModel, P
 
 /// A CameraInfo that cannot describe the camera.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{topic} at {stamp:.6} s: {reason}")]
+#[error("{topic} at {stamp} s: {reason}")]
 pub struct CameraInfoError {
     /// The topic.
     pub topic: String,
-    /// The header stamp, seconds.
-    pub stamp: f64,
+    /// The header stamp.
+    pub stamp: gfs_core::stamp::Stamp,
     /// What is wrong.
     pub reason: String,
 }
@@ -33,7 +33,7 @@ pub fn camera_from_info(
 ) -> Result<Camera, CameraInfoError> {
     let error = |reason: String| CameraInfoError {
         topic: topic.to_owned(),
-        stamp: info.header.stamp.secs(),
+        stamp: info.header.stamp.into(),
         reason,
     };
     if info.k.iter().all(|&v| v == 0.0) {

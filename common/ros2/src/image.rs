@@ -10,12 +10,12 @@ use gfs_dataset::{DepthConfig, gray_bt601};
 
 /// An image that cannot become a frame plane.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{topic} at {stamp:.6} s: {reason}")]
+#[error("{topic} at {stamp} s: {reason}")]
 pub struct ImageError {
     /// The topic the image came from.
     pub topic: String,
-    /// Its header stamp, seconds.
-    pub stamp: f64,
+    /// Its header stamp.
+    pub stamp: gfs_core::stamp::Stamp,
     /// What is wrong.
     pub reason: String,
 }
@@ -33,7 +33,7 @@ impl Received<'_> {
     fn error(&self, reason: String) -> ImageError {
         ImageError {
             topic: self.topic.to_owned(),
-            stamp: self.image.header.stamp.secs(),
+            stamp: self.image.header.stamp.into(),
             reason,
         }
     }

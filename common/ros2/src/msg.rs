@@ -16,23 +16,6 @@ pub struct Time {
 }
 
 impl Time {
-    /// The stamp `seconds` stands for ([`Stamp::from_secs`]); zero when not finite.
-    pub fn from_secs(seconds: f64) -> Self {
-        Stamp::from_secs(seconds)
-            .map(Self::from)
-            .unwrap_or_default()
-    }
-
-    /// Seconds after the epoch ([`Stamp::secs`]: the `f64` nearest to `sec.nanosec`
-    /// written in decimal, so a stamp read from a TUM list and the same stamp carried by
-    /// a message give the same number).
-    pub fn secs(&self) -> f64 {
-        self.stamp().map_or(
-            f64::from(self.sec) + f64::from(self.nanosec) * 1e-9,
-            Stamp::secs,
-        )
-    }
-
     /// Nanoseconds after the epoch (exact, for ordering and MCAP log times).
     pub fn nanos(&self) -> i64 {
         i64::from(self.sec) * 1_000_000_000 + i64::from(self.nanosec)
@@ -43,6 +26,14 @@ impl From<Stamp> for Time {
     fn from(stamp: Stamp) -> Self {
         let (sec, nanosec) = stamp.sec_nanosec();
         Self { sec, nanosec }
+    }
+}
+
+/// The stamp of `sec` and `nanosec`, exact (a `nanosec` of 1e9 or more carries into
+/// the seconds).
+impl From<Time> for Stamp {
+    fn from(time: Time) -> Self {
+        Stamp::from_nanos(time.nanos())
     }
 }
 
@@ -313,19 +304,24 @@ mod tests {
     use super::*;
 
     #[test]
-    fn stamps_in_seconds_are_the_nearest_double_of_their_decimal() {
-        // The double of 1305031229.796909 is 1305031229.79690909385... (240 ns
-        // spacing): the stamp it stands for is the decimal, exactly, both ways.
-        let t = Time::from_secs(1305031229.796909);
-        assert_eq!((t.sec, t.nanosec), (1305031229, 796_909_000));
-        assert_eq!(t.secs(), 1305031229.796909);
-        assert_eq!(t.secs(), "1305031229.796909".parse::<f64>().unwrap());
+    fn a_time_is_its_stamp_exactly_both_ways() {
+        let stamp: Stamp = "1305031229.123456789".parse().unwrap();
+        let t = Time::from(stamp);
+        assert_eq!((t.sec, t.nanosec), (1305031229, 123_456_789));
+        assert_eq!((t.stamp(), Stamp::from(t)), (Some(stamp), stamp));
         let early = Time {
             sec: -2,
             nanosec: 500_000_000,
         };
-        assert_eq!(early.secs(), -1.5);
-        assert_eq!(Time::from_secs(-1.5), early);
         assert_eq!(early.nanos(), -1_500_000_000);
+        assert_eq!(Time::from(Stamp::from(early)), early);
+        let carried = Time {
+            sec: 1,
+            nanosec: 1_500_000_000,
+        };
+        assert_eq!(
+            (carried.stamp(), Stamp::from(carried).nanos()),
+            (None, 2_500_000_000)
+        );
     }
 }

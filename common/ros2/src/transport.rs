@@ -244,7 +244,7 @@ fn set_encoding(image: &mut Image, encoding: &str) {
 fn error(message: &CompressedImage, topic: &str, reason: String) -> ImageError {
     ImageError {
         topic: topic.to_owned(),
-        stamp: message.header.stamp.secs(),
+        stamp: message.header.stamp.into(),
         reason,
     }
 }

@@ -7,6 +7,7 @@ use crate::rng::SplitMix64;
 use crate::scene::{Scene, SceneKind};
 use crate::trajectory::{self, TrajectoryKind};
 use gfs_core::camera::{Distortion, PinholeCamera};
+use gfs_core::stamp::Stamp;
 use gfs_core::{DepthImage, GrayImage, RgbImage};
 use nalgebra::Isometry3;
 use serde::Deserialize;
@@ -87,8 +88,8 @@ impl SynthConfig {
 pub struct SynthFrame {
     /// Frame index in the sequence.
     pub index: usize,
-    /// Capture time, seconds.
-    pub timestamp: f64,
+    /// Capture stamp, as the sequence's folder lists it ([`SynthSequence::timestamp`]).
+    pub timestamp: Stamp,
     /// Ground-truth pose `T_wc`.
     pub pose: Isometry3<f64>,
     /// Colour image.
@@ -112,7 +113,7 @@ pub struct SynthFrame {
 /// });
 /// let frame = seq.render(2);
 /// assert_eq!((frame.rgb.width(), frame.depth.height()), (160, 120));
-/// assert_eq!(frame.timestamp, 1000.0 + 2.0 / 30.0);
+/// assert_eq!(frame.timestamp.to_string(), "1000.066667");
 /// assert!(frame.depth.as_slice().iter().all(|&z| z > 0.1 && z < 15.0));
 /// ```
 #[derive(Clone, Debug)]
@@ -195,9 +196,11 @@ impl SynthSequence {
         self.motion.pose(t)
     }
 
-    /// Timestamp of frame `i`, seconds: `start_time + i / rate_hz`.
-    pub fn timestamp(&self, i: usize) -> f64 {
-        self.config.start_time + i as f64 / self.config.rate_hz
+    /// Stamp of frame `i`: `start_time + i / rate_hz` seconds to the microsecond, as a
+    /// TUM list writes it.
+    pub fn timestamp(&self, i: usize) -> Stamp {
+        let seconds = self.config.start_time + i as f64 / self.config.rate_hz;
+        Stamp::from_nanos((seconds * 1e6).round() as i64 * 1000)
     }
 
     /// Exposure gain of frame `i` (1 without exposure drift).

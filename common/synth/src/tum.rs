@@ -48,7 +48,7 @@ impl SynthSequence {
             self.config().camera.height as u32,
         );
         let stamps: Vec<String> = (0..self.len())
-            .map(|i| format!("{:.6}", self.timestamp(i)))
+            .map(|i| self.timestamp(i).to_string())
             .collect();
         let frames = self.len();
         let (sender, receiver) = mpsc::sync_channel::<Encoded>(2);
@@ -68,7 +68,7 @@ impl SynthSequence {
             let mut scratch = RenderBuffers::default();
             let mut frame = SynthFrame {
                 index: 0,
-                timestamp: 0.0,
+                timestamp: Default::default(),
                 pose: nalgebra::Isometry3::identity(),
                 rgb: RgbImage::new(0, 0),
                 gray: GrayImage::new(0, 0),

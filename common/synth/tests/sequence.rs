@@ -107,8 +107,8 @@ fn trajectories_keep_clearance_and_reach_their_speeds() {
 #[test]
 fn timestamps_start_at_the_epoch_and_tick_at_30_hz() {
     let seq = SynthSequence::new(small(1, NoiseConfig::none()));
-    assert_eq!(seq.timestamp(0), 1000.0);
-    assert!((seq.timestamp(3) - 1000.1).abs() < 1e-12);
+    assert_eq!(seq.timestamp(0).to_string(), "1000.000000");
+    assert_eq!(seq.timestamp(3).to_string(), "1000.100000");
     assert!(
         SynthSequence::new(SynthConfig {
             frames: 0,

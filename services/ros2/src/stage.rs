@@ -17,7 +17,6 @@ use gfs_ros2::msg::{Header, Time};
 use gfs_ros2::odom::{OdometryPublisherState, TrackedPose};
 use gfs_ros2::pairing::{Paired, Pairer};
 use gfs_ros2::transport::{TransportDecoder, TransportImage};
-use std::collections::VecDeque;
 use std::io::Write;
 use std::time::{Duration, Instant};
 
@@ -27,8 +26,6 @@ const CHECKPOINT: &str = "ros2.bin";
 const FRAMES_FILE: &str = "ros2-frames.txt";
 /// How long the loop sleeps on the pose topic when nothing came.
 const IDLE: Duration = Duration::from_millis(1);
-/// Colour stamps kept by frame id for `/odom`: more frames than the pipeline holds.
-const STAMPS_KEPT: usize = 256;
 /// How often `/diagnostics` is published.
 const REPORT_EVERY: Duration = Duration::from_secs(1);
 /// A colour stamp this far before the last one (ns) is a camera that restarted its
@@ -75,7 +72,6 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
     let mut camera_checked = false;
     let mut last_published: Option<u64> = None;
     let mut diagnostics = DiagnosticsWindow::new();
-    let mut stamps = VecDeque::with_capacity(STAMPS_KEPT);
     let mut next_report = Instant::now() + REPORT_EVERY;
     while !ctx.stopping() {
         let mut busy = take_images(&dds, &mut pairer, (&colour_topic, &depth_topic));
@@ -120,14 +116,10 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
                     {
                         Ok(()) => {
                             diagnostics.frame_received(monotonic_ns() as i64);
-                            let stamp = colour.image.header.stamp.stamp().unwrap_or_default();
+                            let stamp = Stamp::from(colour.image.header.stamp);
                             if let Some(file) = frames_file.as_mut() {
                                 writeln!(file, "{next_id} {stamp}")?;
                             }
-                            if stamps.len() == STAMPS_KEPT {
-                                stamps.pop_front();
-                            }
-                            stamps.push_back((next_id, stamp));
                             if let Some(visuals) = visuals.as_mut() {
                                 visuals.frame(next_id, stamp, colour.image);
                             }
@@ -175,15 +167,9 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
             let now_ns = monotonic_ns();
             let latency_s = (received_ns != 0 && now_ns >= received_ns)
                 .then(|| (now_ns - received_ns) as f64 * 1e-9);
-            // The stamp of the frame's colour image as received, bit for bit.
-            let stamp = stamps
-                .iter()
-                .find(|(id, _)| *id == pose.id.0)
-                .map(|(_, stamp)| *stamp)
-                .or_else(|| Stamp::from_secs(pose.timestamp))
-                .unwrap_or_default();
+            // The frame's colour stamp as received, carried bit for bit by the pipeline.
             let messages = odometry.messages(&TrackedPose {
-                stamp,
+                stamp: pose.timestamp,
                 world_from_camera: pose.world_from_camera,
                 covariance: wire.covariance(),
                 status: pose.status.as_str(),

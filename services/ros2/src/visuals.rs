@@ -274,7 +274,7 @@ impl Thread {
         )?;
         let shown = self.ros2.visualisation.clone();
         let mut frames: BTreeMap<u64, FrameState> = BTreeMap::new();
-        let mut path: Vec<(f64, Isometry3<f64>)> = Vec::new();
+        let mut path: Vec<(Stamp, Isometry3<f64>)> = Vec::new();
         let mut path_gate = RateGate::new(shown.path_rate_hz);
         let mut keyframes = 0;
         let mut view = FrameView::default();
@@ -322,7 +322,7 @@ impl Thread {
                 let stamp = frames
                     .get(&id)
                     .and_then(|f| f.stamp)
-                    .map_or(sample.user_header().capture_time_s, Stamp::secs);
+                    .unwrap_or_else(|| sample.user_header().capture_stamp());
                 send(
                     &out.landmarks,
                     self.visualiser.landmarks(&scene, stamp),

@@ -38,13 +38,13 @@ pub(crate) fn closest_index(sorted: &[f64], t: f64) -> Option<usize> {
 pub fn associate(first: &Trajectory, second: &Trajectory, max_diff: f64) -> Vec<(usize, usize)> {
     let second_longer = second.len() > first.len();
     let (short, long) = if second_longer {
-        (first.timestamps(), second.timestamps())
+        (first.seconds(), second.seconds())
     } else {
-        (second.timestamps(), first.timestamps())
+        (second.seconds(), first.seconds())
     };
     let mut pairs = Vec::new();
     for (i_short, &t) in short.iter().enumerate() {
-        if let Some(i_long) = closest_index(long, t)
+        if let Some(i_long) = closest_index(&long, t)
             && (long[i_long] - t).abs() <= max_diff
         {
             pairs.push(if second_longer {
@@ -60,12 +60,13 @@ pub fn associate(first: &Trajectory, second: &Trajectory, max_diff: f64) -> Vec<
 #[cfg(test)]
 mod tests {
     use super::*;
+    use gfs_core::stamp::Stamp;
     use nalgebra::Isometry3;
 
     fn stamps(ts: &[f64]) -> Trajectory {
         let mut t = Trajectory::new();
         for &s in ts {
-            t.push(s, Isometry3::identity());
+            t.push(Stamp::from_secs(s).unwrap(), Isometry3::identity());
         }
         t
     }

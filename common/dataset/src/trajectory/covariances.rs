@@ -10,6 +10,7 @@
 //! model) have no line.
 
 use super::tum::TrajectoryError;
+use gfs_core::stamp::Stamp;
 use nalgebra::Matrix6;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -17,7 +18,7 @@ use std::path::{Path, PathBuf};
 /// Covariances of poses by timestamp, in time order.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Covariances {
-    stamps: Vec<f64>,
+    stamps: Vec<Stamp>,
     matrices: Vec<Matrix6<f64>>,
 }
 
@@ -28,7 +29,7 @@ impl Covariances {
     }
 
     /// Appends the covariance of the pose at `timestamp` (after the last one).
-    pub fn push(&mut self, timestamp: f64, covariance: Matrix6<f64>) {
+    pub fn push(&mut self, timestamp: Stamp, covariance: Matrix6<f64>) {
         self.stamps.push(timestamp);
         self.matrices.push(covariance);
     }
@@ -45,13 +46,13 @@ impl Covariances {
 
     /// The covariance of the pose stamped within `max_diff` s of `timestamp`, the
     /// closest one.
-    pub fn at(&self, timestamp: f64, max_diff: f64) -> Option<&Matrix6<f64>> {
+    pub fn at(&self, timestamp: Stamp, max_diff: f64) -> Option<&Matrix6<f64>> {
         let i = self.stamps.partition_point(|&t| t < timestamp);
         [i.checked_sub(1), Some(i)]
             .into_iter()
             .flatten()
             .filter(|&k| k < self.stamps.len())
-            .map(|k| (k, (self.stamps[k] - timestamp).abs()))
+            .map(|k| (k, self.stamps[k].secs_since(timestamp).abs()))
             .filter(|&(_, d)| d <= max_diff)
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(k, _)| &self.matrices[k])
@@ -85,6 +86,11 @@ impl Covariances {
                 .map(str::parse::<f64>)
                 .collect::<Result<_, _>>()
                 .map_err(|_| malformed("not a number"))?;
+            let stamp = trimmed
+                .split_whitespace()
+                .next()
+                .and_then(|t| t.parse().ok().or_else(|| Stamp::from_secs(numbers[0])))
+                .ok_or_else(|| malformed("timestamp out of range"))?;
             if numbers.len() != 37 {
                 return Err(malformed("expected a timestamp and 36 numbers"));
             }
@@ -101,16 +107,16 @@ impl Covariances {
                 ));
             }
             if let Some(&previous) = out.stamps.last()
-                && numbers[0] < previous
+                && stamp < previous
             {
                 return Err(TrajectoryError::Backwards {
                     path: PathBuf::from(path),
                     line: index + 1,
-                    timestamp: numbers[0],
+                    timestamp: stamp,
                     previous,
                 });
             }
-            out.push(numbers[0], matrix);
+            out.push(stamp, matrix);
         }
         Ok(out)
     }
@@ -133,7 +139,7 @@ impl Covariances {
         )
         .map_err(io)?;
         for (t, m) in self.stamps.iter().zip(&self.matrices) {
-            write!(w, "{t:.6}").map_err(io)?;
+            write!(w, "{t}").map_err(io)?;
             for r in 0..6 {
                 for c in 0..6 {
                     write!(w, " {:e}", m[(r, c)]).map_err(io)?;

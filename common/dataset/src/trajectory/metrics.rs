@@ -263,7 +263,7 @@ pub fn rpe_per_frame(gt_matched: &Trajectory, est_matched: &Trajectory) -> Optio
 /// poses are those matched within `max_diff`.
 pub fn rpe_per_second(gt_matched: &Trajectory, est_matched: &Trajectory) -> Option<Rpe> {
     const DELTA_S: f64 = 1.0;
-    let stamps = est_matched.timestamps();
+    let stamps = est_matched.seconds();
     let n = stamps.len().min(gt_matched.len());
     let stamps = &stamps[..n];
     let pairs = (0..n)

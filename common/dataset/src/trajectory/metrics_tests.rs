@@ -1,7 +1,12 @@
 //! Tests of the evaluation on trajectories with known answers.
 
 use super::*;
+use gfs_core::stamp::Stamp;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+
+fn at(seconds: f64) -> Stamp {
+    Stamp::from_secs(seconds).unwrap()
+}
 
 /// splitmix64: a tiny deterministic generator for test noise.
 struct SplitMix(u64);
@@ -37,7 +42,7 @@ fn wavy_ground_truth(n: usize, rate_hz: f64) -> Trajectory {
             0.3 * (0.5 * t).sin(),
         );
         let rot = UnitQuaternion::from_euler_angles(0.2 * (0.7 * t).sin(), 0.4 * t, 0.1 * t.cos());
-        gt.push(1000.0 + t, Isometry3::from_parts(pos, rot));
+        gt.push(at(1000.0 + t), Isometry3::from_parts(pos, rot));
     }
     gt
 }
@@ -113,8 +118,8 @@ fn hand_computed_rpe_per_frame_and_per_second() {
     let (mut q, mut p) = (Isometry3::identity(), Isometry3::identity());
     for k in 0..30 {
         let t = k as f64 * 0.1;
-        gt.push(t, q);
-        est.push(t, p);
+        gt.push(at(t), q);
+        est.push(at(t), p);
         q *= step_gt;
         p *= step_est;
     }
@@ -155,7 +160,7 @@ fn stamps_with_jitter_are_matched_within_the_window() {
         let t = 1000.0 + k as f64 / 30.0 + jitter;
         // The pose of the closest ground-truth stamp: exact when matched.
         let idx = ((t - 1000.0) * 100.0).round() as usize;
-        est.push(t, gt.poses()[idx]);
+        est.push(at(t), gt.poses()[idx]);
     }
     // With a 1 ms window only stamps within 1 ms of the 10 ms grid match.
     let tight = evaluate(&gt, &est, 0.001).unwrap();
@@ -165,7 +170,7 @@ fn stamps_with_jitter_are_matched_within_the_window() {
     assert!(all.ate.stats.max < 1e-9);
     let mut shifted = Trajectory::new();
     for (t, p) in est.iter() {
-        shifted.push(t + 100.0, *p);
+        shifted.push(at(t.secs() + 100.0), *p);
     }
     assert!(matches!(
         evaluate(&gt, &shifted, EVO_MAX_DIFF_S),

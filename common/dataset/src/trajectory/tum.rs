@@ -1,5 +1,6 @@
 //! A timestamped trajectory and the TUM text format `timestamp tx ty tz qx qy qz qw`.
 
+use gfs_core::stamp::Stamp;
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -36,17 +37,17 @@ pub enum TrajectoryError {
         path: PathBuf,
         /// 1-based line number.
         line: usize,
-        /// The timestamp of this line, s.
-        timestamp: f64,
-        /// The timestamp of the line before, s.
-        previous: f64,
+        /// The timestamp of this line.
+        timestamp: Stamp,
+        /// The timestamp of the line before.
+        previous: Stamp,
     },
 }
 
 /// Timestamped camera poses `T_wc` (`world_from_camera`), stamps non-decreasing.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Trajectory {
-    stamps: Vec<f64>,
+    stamps: Vec<Stamp>,
     poses: Vec<Isometry3<f64>>,
 }
 
@@ -58,7 +59,7 @@ impl Trajectory {
 
     /// Appends a pose. The caller keeps stamps in non-decreasing order (the evaluation
     /// searches them by bisection).
-    pub fn push(&mut self, timestamp: f64, world_from_camera: Isometry3<f64>) {
+    pub fn push(&mut self, timestamp: Stamp, world_from_camera: Isometry3<f64>) {
         debug_assert!(self.stamps.last().is_none_or(|&t| t <= timestamp));
         self.stamps.push(timestamp);
         self.poses.push(world_from_camera);
@@ -74,9 +75,14 @@ impl Trajectory {
         self.stamps.is_empty()
     }
 
-    /// Timestamps, s.
-    pub fn timestamps(&self) -> &[f64] {
+    /// Capture stamps, in order.
+    pub fn timestamps(&self) -> &[Stamp] {
         &self.stamps
+    }
+
+    /// The stamps in seconds ([`Stamp::secs`]), for the evaluation's arithmetic.
+    pub fn seconds(&self) -> Vec<f64> {
+        self.stamps.iter().map(|s| s.secs()).collect()
     }
 
     /// Poses `T_wc`, one per timestamp.
@@ -85,7 +91,7 @@ impl Trajectory {
     }
 
     /// `(timestamp, T_wc)` pairs in order.
-    pub fn iter(&self) -> impl Iterator<Item = (f64, &Isometry3<f64>)> {
+    pub fn iter(&self) -> impl Iterator<Item = (Stamp, &Isometry3<f64>)> {
         self.stamps.iter().copied().zip(&self.poses)
     }
 
@@ -112,7 +118,8 @@ impl Trajectory {
     }
 
     /// Reads a TUM trajectory file. Blank lines and `#` comments are skipped; fields may
-    /// be separated by spaces, tabs or commas; quaternions are normalised.
+    /// be separated by spaces, tabs or commas; quaternions are normalised. Stamps in
+    /// decimal are read exactly; another number form (`1.3e9`) through its `f64`.
     ///
     /// # Errors
     /// [`TrajectoryError::Io`] when the file cannot be read; [`TrajectoryError::Malformed`]
@@ -144,6 +151,7 @@ impl Trajectory {
                 text: trimmed.to_owned(),
             };
             let mut v = [0.0f64; 8];
+            let mut stamp = None;
             let mut count = 0;
             for field in trimmed
                 .split(|c: char| c.is_whitespace() || c == ',')
@@ -157,6 +165,9 @@ impl Trajectory {
                     .ok()
                     .filter(|x| x.is_finite())
                     .ok_or_else(|| malformed("field is not a finite number"))?;
+                if count == 0 {
+                    stamp = field.parse().ok().or_else(|| Stamp::from_secs(v[0]));
+                }
                 count += 1;
             }
             if count != 8 {
@@ -168,18 +179,19 @@ impl Trajectory {
             if q.norm() < 1e-9 {
                 return Err(malformed("quaternion has zero norm"));
             }
+            let stamp = stamp.ok_or_else(|| malformed("timestamp out of range"))?;
             if let Some(&previous) = out.stamps.last()
-                && v[0] < previous
+                && stamp < previous
             {
                 return Err(TrajectoryError::Backwards {
                     path: origin.to_path_buf(),
                     line,
-                    timestamp: v[0],
+                    timestamp: stamp,
                     previous,
                 });
             }
             out.push(
-                v[0],
+                stamp,
                 Isometry3::from_parts(
                     Translation3::new(v[1], v[2], v[3]),
                     UnitQuaternion::from_quaternion(q),
@@ -189,7 +201,8 @@ impl Trajectory {
         Ok(out)
     }
 
-    /// Writes the trajectory in TUM format (stamps with 6 decimals, poses with 9).
+    /// Writes the trajectory in TUM format: stamps exactly, with 6 decimals or as many
+    /// more as their nanoseconds need ([`Stamp`]'s display), poses with 9.
     ///
     /// # Errors
     /// [`TrajectoryError::Io`] when the file cannot be created or written.
@@ -215,7 +228,7 @@ impl Trajectory {
             let q = pose.rotation.quaternion();
             writeln!(
                 w,
-                "{t:.6} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9}",
+                "{t} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9}",
                 p.x, p.y, p.z, q.i, q.j, q.k, q.w
             )?;
         }
@@ -236,7 +249,7 @@ mod tests {
         let text = "# header\n\n1.0 1 2 3 0 0 0 2\n1.5\t0 0 0 0 0 1 1\n";
         let t = Trajectory::parse_tum(text, origin()).unwrap();
         assert_eq!(t.len(), 2);
-        assert_eq!(t.timestamps(), &[1.0, 1.5]);
+        assert_eq!(t.seconds(), [1.0, 1.5]);
         assert_eq!(t.poses()[0].translation.vector.y, 2.0);
         let angle = t.poses()[1].rotation.angle().to_degrees();
         assert!((angle - 90.0).abs() < 1e-9, "{angle}");
@@ -271,16 +284,25 @@ mod tests {
         let mut t = Trajectory::new();
         let q = UnitQuaternion::from_euler_angles(0.3, -0.2, 1.1);
         t.push(
-            1305031229.528748,
+            "1305031229.528748".parse().unwrap(),
             Isometry3::from_parts(Translation3::new(1.25, -0.5, 3.0), q),
         );
-        t.push(1305031229.564425, Isometry3::identity());
+        t.push(
+            "1305031229.564425789".parse().unwrap(),
+            Isometry3::identity(),
+        );
         let mut buf = Vec::new();
         t.write_tum_to(&mut buf).unwrap();
         let back = Trajectory::parse_tum(std::str::from_utf8(&buf).unwrap(), origin()).unwrap();
         assert_eq!(back.len(), 2);
+        let text = String::from_utf8(buf).unwrap();
+        assert!(text.contains("\n1305031229.528748 1.250000000 "), "{text}");
+        assert!(
+            text.contains("\n1305031229.564425789 0.000000000 "),
+            "{text}"
+        );
         for (a, b) in t.iter().zip(back.iter()) {
-            assert!((a.0 - b.0).abs() < 1e-6);
+            assert_eq!(a.0, b.0);
             assert!((a.1.translation.vector - b.1.translation.vector).norm() < 1e-9);
             assert!(a.1.rotation.angle_to(&b.1.rotation) < 1e-8);
         }

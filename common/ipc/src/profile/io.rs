@@ -82,6 +82,7 @@ mod tests {
     use super::*;
     use crate::header::{MsgHeader, Stage, StageStamp};
     use gfs_core::ids::FrameId;
+    use gfs_core::stamp::Stamp;
 
     fn temp(name: &str) -> PathBuf {
         std::env::temp_dir().join(format!("gfs_profile_{}_{name}", std::process::id()))
@@ -90,7 +91,10 @@ mod tests {
     fn sample() -> Profile {
         let mut profile = Profile::new("lockstep");
         for k in 0..4u64 {
-            let mut h = MsgHeader::new(FrameId(k), 1.5 + k as f64 / 30.0);
+            let mut h = MsgHeader::new(
+                FrameId(k),
+                Stamp::from_nanos(1_500_000_000 + k as i64 * 33_333_333),
+            );
             let t = 1_000_000 * (k + 1);
             *h.stamp_mut(Stage::Source) = StageStamp {
                 received_ns: t,

@@ -17,7 +17,7 @@
 //! use gfs_ipc::{MsgHeader, Stage, StageStamp, profile::Profile};
 //! let mut profile = Profile::new("lockstep");
 //! for k in 0..10u64 {
-//!     let mut header = MsgHeader::new(FrameId(k), k as f64 / 30.0);
+//!     let mut header = MsgHeader::new(FrameId(k), Stamp::from_nanos(k as i64 * 33_333_333));
 //!     let t = 1_000_000_000 * (k + 1);
 //!     *header.stamp_mut(Stage::Source) = StageStamp { received_ns: t, started_ns: t, finished_ns: t + 2_000_000 };
 //!     *header.stamp_mut(Stage::Tracker) =

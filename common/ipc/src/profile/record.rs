@@ -106,7 +106,7 @@ impl FrameRecord {
     fn empty(header: &MsgHeader) -> Self {
         Self {
             frame_id: header.frame_id,
-            capture_time_s: header.capture_time_s,
+            capture_time_s: header.capture_stamp().secs(),
             status: String::new(),
             stages: StageTimes::default(),
             end_to_end_ns: None,
@@ -212,6 +212,7 @@ impl Profile {
 mod tests {
     use super::*;
     use gfs_core::ids::FrameId;
+    use gfs_core::stamp::Stamp;
 
     fn stamp(received_ns: u64, started_ns: u64, finished_ns: u64) -> StageStamp {
         StageStamp {
@@ -225,7 +226,7 @@ mod tests {
     fn records_are_sorted_and_merged_by_frame_id() {
         let mut profile = Profile::new("realtime");
         for id in [3, 1, 2] {
-            let mut h = MsgHeader::new(FrameId(id), id as f64 * 0.1);
+            let mut h = MsgHeader::new(FrameId(id), Stamp::from_nanos(id as i64 * 100_000_000));
             *h.stamp_mut(Stage::Source) = stamp(100, 110, 200);
             *h.stamp_mut(Stage::Tracker) = stamp(300, 310, 1_000);
             profile.record(&h, "ok");
@@ -236,7 +237,7 @@ mod tests {
 
         // The mapper's snapshot for keyframe 2 adds its stamp; the pose was out before the
         // mapping, so end-to-end stays frame published -> pose out.
-        let mut m = MsgHeader::new(FrameId(2), 0.2);
+        let mut m = MsgHeader::new(FrameId(2), Stamp::from_nanos(200_000_000));
         *m.stamp_mut(Stage::Mapper) = stamp(1_100, 1_200, 5_110);
         // A stray stamp of another stage on that header is not taken.
         *m.stamp_mut(Stage::Points) = stamp(1, 2, 3);
@@ -248,7 +249,7 @@ mod tests {
         assert_eq!(f2.processing_ms(Stage::Mapper), Some(0.00391));
 
         // A later header for frame 3 fills missing stamps, keeps present ones and the status.
-        let mut late = MsgHeader::new(FrameId(3), 0.3);
+        let mut late = MsgHeader::new(FrameId(3), Stamp::from_nanos(300_000_000));
         *late.stamp_mut(Stage::Source) = stamp(7, 8, 9);
         *late.stamp_mut(Stage::Lines) = stamp(120, 130, 400);
         profile.record(&late, "lost");
@@ -259,7 +260,7 @@ mod tests {
         assert_eq!(profile.frames.len(), 3);
 
         // A mapper stamp for a frame never seen creates a record without status.
-        let mut m9 = MsgHeader::new(FrameId(9), 0.9);
+        let mut m9 = MsgHeader::new(FrameId(9), Stamp::from_nanos(900_000_000));
         *m9.stamp_mut(Stage::Mapper) = stamp(1, 2, 4);
         profile.record_stage(&m9, Stage::Mapper);
         let f9 = profile.frame(9).unwrap();

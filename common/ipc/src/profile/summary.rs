@@ -164,6 +164,7 @@ mod tests {
     use super::*;
     use crate::header::{MsgHeader, StageStamp};
     use gfs_core::ids::FrameId;
+    use gfs_core::stamp::Stamp;
 
     const MS: u64 = 1_000_000;
 
@@ -172,7 +173,7 @@ mod tests {
     fn hundred_frames() -> Profile {
         let mut profile = Profile::new("realtime");
         for k in 1..=100u64 {
-            let mut h = MsgHeader::new(FrameId(k), k as f64);
+            let mut h = MsgHeader::new(FrameId(k), Stamp::from_nanos(k as i64 * 1_000_000_000));
             let t0 = 1_000 * MS * k;
             *h.stamp_mut(Stage::Source) = StageStamp {
                 received_ns: t0,

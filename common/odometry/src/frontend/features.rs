@@ -2,6 +2,7 @@
 
 use crate::depth::grid::DepthGrid;
 use gfs_core::ids::FrameId;
+use gfs_core::stamp::Stamp;
 use gfs_lines::{DetectedLine, Line3};
 use gfs_planes::{ManhattanAxes, Plane};
 use gfs_points::KeyPoint;
@@ -17,8 +18,8 @@ pub use gfs_points::{Descriptor, hamming};
 pub struct FrameFeatures {
     /// Input frame id.
     pub id: FrameId,
-    /// Capture time, seconds.
-    pub timestamp: f64,
+    /// Capture stamp, as the source gave it.
+    pub timestamp: Stamp,
     /// ORB keypoints in undistorted pixels, with depth (0 = none).
     pub keypoints: Vec<KeyPoint>,
     /// rBRIEF descriptors of `keypoints`.

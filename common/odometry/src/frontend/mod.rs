@@ -235,7 +235,7 @@ impl Frontend {
     pub fn extract(
         &mut self,
         id: FrameId,
-        timestamp: f64,
+        timestamp: gfs_core::stamp::Stamp,
         gray: ImageView<'_, u8>,
         depth: ImageView<'_, f32>,
         predicted_rotation: Option<&Rotation3<f64>>,
@@ -331,7 +331,13 @@ mod tests {
         frontend.set_keep_depth(true);
         frontend.set_keep_planes(true);
         frontend
-            .extract(FrameId(0), 0.0, gray.view(), depth.view(), None)
+            .extract(
+                FrameId(0),
+                Default::default(),
+                gray.view(),
+                depth.view(),
+                None,
+            )
             .unwrap()
     }
 

@@ -108,8 +108,8 @@ impl MapRequest {
 pub struct Relocalised {
     /// The frame of the request.
     pub frame: FrameId,
-    /// Its capture time, seconds.
-    pub timestamp: f64,
+    /// Its capture stamp.
+    pub timestamp: gfs_core::stamp::Stamp,
     /// The keyframe whose place it sees.
     pub keyframe: KeyFrameId,
     /// Its `camera_from_world` in the map.

@@ -50,9 +50,6 @@ impl FrameFeatures {
                 e.what, e.got, e.want
             ));
         }
-        if !self.timestamp.is_finite() {
-            return fail(format!("timestamp {} is not finite", self.timestamp));
-        }
         for (i, k) in self.keypoints.iter().enumerate() {
             let numbers = [k.u, k.v, k.angle, k.response, k.depth].map(f64::from);
             if !finite(&numbers) || k.depth < 0.0 || k.level >= MAX_LEVELS {

@@ -144,7 +144,7 @@ impl Odometry {
     /// The pose of a frame whose images could not be read: the motion-model prediction,
     /// flagged [`crate::TrackingStatus::Predicted`], so that the trajectory keeps one
     /// line per input frame.
-    pub fn skip(&mut self, id: FrameId, timestamp: f64) -> FramePose {
+    pub fn skip(&mut self, id: FrameId, timestamp: gfs_core::stamp::Stamp) -> FramePose {
         self.timings = OdometryTimings::default();
         self.covariance = None;
         self.tracking.skip(id, timestamp)
@@ -217,7 +217,7 @@ mod tests {
         }
         assert!(mapped >= 2, "{mapped} keyframes");
         assert_eq!(odometry.map().keyframe_count(), mapped);
-        let skipped = odometry.skip(FrameId(40), 40.0 / 30.0);
+        let skipped = odometry.skip(FrameId(40), crate::testing::frame_stamp(40));
         assert_eq!(skipped.status, crate::TrackingStatus::Predicted);
     }
 }

@@ -133,7 +133,7 @@ fn a_long_outage_starts_a_new_map_that_resets_the_mappers_and_the_axes() {
     let frames_before_new_map = OdometryConfig::default().tracking.frames_before_new_map;
     let blind = |k: u64| crate::frontend::features::FrameFeatures {
         id: gfs_core::ids::FrameId(k),
-        timestamp: k as f64 / 30.0,
+        timestamp: crate::testing::frame_stamp(k),
         ..Default::default()
     };
     for k in 1..frames_before_new_map {

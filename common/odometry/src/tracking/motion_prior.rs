@@ -9,7 +9,8 @@
 //! prior is looser (`motion_prior_feature_angular_accel_deg_s2`).
 
 use crate::depth::alignment::DepthAlignmentConfig;
-use crate::tracking::motion::RATE_INTERVAL_S;
+use crate::tracking::motion::{RATE_INTERVAL_S, interval_s};
+use gfs_core::stamp::Stamp;
 use gfs_optim::map_eigenvalues;
 use gfs_optim::residuals::PosePrior;
 use nalgebra::{Isometry3, Matrix3, Matrix6, Point3, Translation3, UnitQuaternion, Vector3};
@@ -63,7 +64,7 @@ pub fn motion_prior(
 #[derive(Clone, Debug, Default)]
 pub struct FilteredVelocity {
     /// The last frame's centre, rotation (`camera_from_world`'s) and timestamp.
-    last: Option<(Vector3<f64>, UnitQuaternion<f64>, f64)>,
+    last: Option<(Vector3<f64>, UnitQuaternion<f64>, Stamp)>,
     centre_velocity: Option<Vector3<f64>>,
     angular_rate: Option<Vector3<f64>>,
 }
@@ -94,7 +95,7 @@ impl FilteredVelocity {
     pub fn update(
         &mut self,
         camera_from_world: &Isometry3<f64>,
-        timestamp: f64,
+        timestamp: Stamp,
         information: Option<&Matrix6<f64>>,
         change: VelocityChange,
     ) {
@@ -102,7 +103,7 @@ impl FilteredVelocity {
         let rotation = camera_from_world.rotation;
         if let (Some((previous, previous_rotation, t0)), Some(information)) =
             (self.last, information)
-            && let dt = timestamp - t0
+            && let dt = interval_s(t0, timestamp)
             && RATE_INTERVAL_S.contains(&dt)
         {
             let covariance = data_covariance(information);
@@ -193,6 +194,10 @@ fn filtered(
 mod tests {
     use super::*;
 
+    fn at(seconds: f64) -> Stamp {
+        Stamp::from_secs(seconds).unwrap()
+    }
+
     fn sigmas(prior: &PosePrior) -> (f64, f64) {
         (
             prior.information[(0, 0)].powf(-0.5),
@@ -249,7 +254,7 @@ mod tests {
         information: Option<&Matrix6<f64>>,
     ) {
         let pose = pose_at(Vector3::from(centre));
-        filter.update(&pose, f64::from(k) * DT, information, CHANGE);
+        filter.update(&pose, at(f64::from(k) * DT), information, CHANGE);
     }
 
     /// Where the filter centres the next frame, one `DT` on, and how it turns it.
@@ -315,17 +320,18 @@ mod tests {
         for k in 0..3 {
             filter.update(
                 &rolled(f64::from(k)),
-                f64::from(k) * DT,
+                at(f64::from(k) * DT),
                 Some(&known()),
                 CHANGE,
             );
         }
-        assert!((next_roll(&filter) - 3.0).abs() < 1e-9);
+        // 1e-6: the stamps are `DT` to the nanosecond (a relative 1e-8).
+        assert!((next_roll(&filter) - 3.0).abs() < 1e-6);
         // A frame rolled half a degree more, along a roll its data leave free: its roll
         // stays, the rate does not take it.
         let mut free = known();
         free[(5, 5)] = 0.0;
-        filter.update(&rolled(3.5), 3.0 * DT, Some(&free), CHANGE);
+        filter.update(&rolled(3.5), at(3.0 * DT), Some(&free), CHANGE);
         assert!(
             (next_roll(&filter) - 4.5).abs() < 0.01,
             "{}",
@@ -333,7 +339,7 @@ mod tests {
         );
         // A well-known frame is followed: its step of half a degree is the rate (to a
         // gain of 0.996 against what the rate may change in a frame).
-        filter.update(&rolled(4.0), 4.0 * DT, Some(&known()), CHANGE);
+        filter.update(&rolled(4.0), at(4.0 * DT), Some(&known()), CHANGE);
         assert!(
             (next_roll(&filter) - 4.502).abs() < 1e-3,
             "{}",
@@ -348,7 +354,7 @@ mod tests {
         for k in 0..3 {
             off.update(
                 &rolled(f64::from(k)),
-                f64::from(k) * DT,
+                at(f64::from(k) * DT),
                 Some(&known()),
                 motion_model,
             );

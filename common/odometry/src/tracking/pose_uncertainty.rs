@@ -80,7 +80,7 @@ struct Gap;
 
 impl PoseJitter {
     /// The covariance of the jitter with the sample of the frame at `camera_from_world`,
-    /// `timestamp` counted in (its own departure is the best evidence of its error).
+    /// `timestamp` (seconds) counted in (its own departure is the best evidence of its error).
     pub fn covariance_with(
         &self,
         camera_from_world: &Isometry3<f64>,

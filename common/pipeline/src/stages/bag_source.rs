@@ -8,6 +8,7 @@ use super::context::{POLL, StageContext, StageError};
 use super::ros2_frames::{publish_blank, publish_pair};
 use super::source::{await_pose, pace};
 use crate::wire::WirePose;
+use gfs_core::stamp::Stamp;
 use gfs_ipc::{FrameLayout, Mode, Service, topics};
 use gfs_ros2::bag::{BagReader, BagTopics};
 use gfs_ros2::image::{FrameConverter, Received};
@@ -64,12 +65,12 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             index += 1;
             continue;
         }
-        let stamp = frame.colour.header().stamp.secs();
+        let stamp: Stamp = frame.colour.header().stamp.into();
         if ctx.mode() == Mode::Realtime {
             let first = *first.get_or_insert((index, stamp));
             let due = match ctx.settings.max_rate {
                 Some(rate) if rate > 0.0 => (index - first.0) as f64 / rate,
-                _ => stamp - first.1,
+                _ => stamp.secs_since(first.1),
             };
             pace(ctx, clock, due);
         }

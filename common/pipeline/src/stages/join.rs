@@ -75,7 +75,7 @@ impl FrameJoin {
                 first_seen: Instant::now(),
                 features: FrameFeatures {
                     id: FrameId(header.frame_id),
-                    timestamp: header.capture_time_s,
+                    timestamp: header.capture_stamp(),
                     ..FrameFeatures::default()
                 },
                 points: false,
@@ -195,9 +195,10 @@ impl FrameJoin {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use gfs_core::stamp::Stamp;
 
     fn header(id: u64) -> MsgHeader {
-        MsgHeader::new(FrameId(id), id as f64 * 0.1)
+        MsgHeader::new(FrameId(id), Stamp::from_nanos(id as i64 * 100_000_000))
     }
 
     #[test]

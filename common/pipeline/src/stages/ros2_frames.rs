@@ -4,6 +4,7 @@
 
 use super::context::StageError;
 use gfs_core::ids::FrameId;
+use gfs_core::stamp::Stamp;
 use gfs_ipc::{FrameLayout, MsgHeader, Service, Stage, TopicPublisher};
 use gfs_ros2::image::{FrameConverter, ImageError, Received};
 
@@ -24,7 +25,7 @@ pub fn publish_pair<S: Service>(
     if let Err(e) = converter.check(colour, depth) {
         return Ok(Err(e));
     }
-    let stamp = colour.image.header.stamp.secs();
+    let stamp = colour.image.header.stamp.into();
     let mut header = MsgHeader::new(FrameId(id), stamp);
     header.mark_received(Stage::Source);
     header.mark_started(Stage::Source);
@@ -47,7 +48,7 @@ pub fn publish_blank<S: Service>(
     publisher: &TopicPublisher<S, u8>,
     layout: &FrameLayout,
     id: u64,
-    stamp: f64,
+    stamp: Stamp,
 ) -> Result<(), StageError> {
     let mut header = MsgHeader::new(FrameId(id), stamp);
     header.mark_received(Stage::Source);

@@ -9,6 +9,7 @@ use crate::msg::{CompressedImage, Header, Image, Time};
 use gfs_core::RgbImage;
 use gfs_core::camera::PinholeCamera;
 use gfs_core::scene::FrameView;
+use gfs_core::stamp::Stamp;
 use nalgebra::Point3;
 use serde::Deserialize;
 
@@ -125,31 +126,32 @@ pub fn tracking_image(
     })
 }
 
-/// Whether a frame at `stamp_s` is due for a tracking image at `rate_hz` of the data's
-/// clock, and when the next is: the first frame, then every `1 / rate_hz` seconds.
+/// Whether a frame at `stamp` is due for a message at `rate_hz` of the data's clock,
+/// and when the next is: the first frame, then every `1 / rate_hz` seconds.
 #[derive(Clone, Copy, Debug)]
 pub struct RateGate {
-    period_s: f64,
-    next_s: f64,
+    period_ns: i64,
+    next: Option<Stamp>,
 }
 
 impl RateGate {
     /// A gate opening at `rate_hz` of the data's stamps.
     pub fn new(rate_hz: f64) -> Self {
         Self {
-            period_s: 1.0 / rate_hz,
-            next_s: f64::NEG_INFINITY,
+            period_ns: (1e9 / rate_hz).round() as i64,
+            next: None,
         }
     }
 
-    /// True when the frame at `stamp_s` is due (and then waits a period from it); a
-    /// stamp far before the last due one (a camera that restarted its clock) opens it.
-    pub fn due(&mut self, stamp_s: f64) -> bool {
-        let restarted = stamp_s < self.next_s - 2.0 * self.period_s;
-        if stamp_s >= self.next_s || restarted {
-            self.next_s = stamp_s + self.period_s;
-            return true;
+    /// True when the frame at `stamp` is due (and then waits a period from it); a stamp
+    /// far before the last due one (a camera that restarted its clock) opens it.
+    pub fn due(&mut self, stamp: Stamp) -> bool {
+        let open = self
+            .next
+            .is_none_or(|next| stamp >= next || stamp.nanos() < next.nanos() - 2 * self.period_ns);
+        if open {
+            self.next = Some(Stamp::from_nanos(stamp.nanos() + self.period_ns));
         }
-        false
+        open
     }
 }

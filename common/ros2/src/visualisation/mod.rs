@@ -13,6 +13,7 @@ pub mod msg;
 use crate::config::Ros2Config;
 use crate::msg::{Header, Pose, Quaternion, Time, Vector3};
 use gfs_core::scene::Scene;
+use gfs_core::stamp::Stamp;
 use msg::{
     ADD, ColorRgba, FLOAT32, LINE_LIST, Marker, MarkerArray, Path, PointCloud2, PointField,
     PoseStamped, TRIANGLE_LIST,
@@ -141,9 +142,9 @@ impl Visualiser {
         }
     }
 
-    fn header(stamp: f64, frame: &str) -> Header {
+    fn header(stamp: Stamp, frame: &str) -> Header {
         Header {
-            stamp: Time::from_secs(stamp),
+            stamp: Time::from(stamp),
             frame_id: frame.to_owned(),
         }
     }
@@ -174,7 +175,7 @@ impl Visualiser {
 
     /// `/gfsvo/landmarks`: the finite map points in `odom`, coloured by height (z) from
     /// the 2nd to the 98th percentile.
-    pub fn landmarks(&self, scene: &Scene, stamp: f64) -> PointCloud2 {
+    pub fn landmarks(&self, scene: &Scene, stamp: Stamp) -> PointCloud2 {
         let points: Vec<Point3<f32>> = scene
             .points
             .iter()
@@ -200,7 +201,7 @@ impl Visualiser {
     /// `/gfsvo/structure`: the lines (LINE_LIST, namespace `lines`), the plane patches
     /// (TRIANGLE_LIST, two triangles each, `planes`), coloured by Manhattan axis, and the
     /// axes at the first keyframe (LINE_LIST, `axes`), in `odom`.
-    pub fn structure(&self, scene: &Scene, stamp: f64) -> MarkerArray {
+    pub fn structure(&self, scene: &Scene, stamp: Stamp) -> MarkerArray {
         let header = Self::header(stamp, &self.odom_frame);
         let marker = |ns: &str, kind, width: f64| Marker {
             header: header.clone(),
@@ -257,7 +258,7 @@ impl Visualiser {
 
     /// `/gfsvo/keyframes`: the keyframe poses of the map (after BA and loop correction)
     /// as base poses in `map`.
-    pub fn keyframes(&self, scene: &Scene, stamp: f64) -> Path {
+    pub fn keyframes(&self, scene: &Scene, stamp: Stamp) -> Path {
         let header = Self::header(stamp, &self.map_frame);
         Path {
             poses: scene
@@ -274,7 +275,7 @@ impl Visualiser {
 
     /// `/gfsvo/path`: the published odometry `(stamp, world_from_camera)` so far as base
     /// poses in `odom`, each stamped with its frame's stamp.
-    pub fn path(&self, poses: &[(f64, Isometry3<f64>)], stamp: f64) -> Path {
+    pub fn path(&self, poses: &[(Stamp, Isometry3<f64>)], stamp: Stamp) -> Path {
         Path {
             header: Self::header(stamp, &self.odom_frame),
             poses: poses

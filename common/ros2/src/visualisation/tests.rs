@@ -39,9 +39,16 @@ fn floats(data: &[u8]) -> Vec<f32> {
 
 #[test]
 fn landmarks_are_x_y_z_rgb_float32_in_odom_without_invalid_points() {
-    let cloud = Visualiser::new(&Ros2Config::default()).landmarks(&scene(), 12.5);
+    let cloud = Visualiser::new(&Ros2Config::default())
+        .landmarks(&scene(), Stamp::from_nanos(12_500_000_001));
     assert_eq!(cloud.header.frame_id, "odom");
-    assert_eq!(cloud.header.stamp, Time::from_secs(12.5));
+    assert_eq!(
+        cloud.header.stamp,
+        Time {
+            sec: 12,
+            nanosec: 500_000_001
+        }
+    );
     let layout: Vec<(&str, u32, u8, u32)> = cloud
         .fields
         .iter()
@@ -84,7 +91,7 @@ fn landmarks_are_x_y_z_rgb_float32_in_odom_without_invalid_points() {
 
 #[test]
 fn structure_has_lines_planes_and_axes_coloured_by_axis() {
-    let markers = Visualiser::new(&Ros2Config::default()).structure(&scene(), 1.0);
+    let markers = Visualiser::new(&Ros2Config::default()).structure(&scene(), Stamp::default());
     let by_ns = |ns: &str| markers.markers.iter().find(|m| m.ns == ns).unwrap();
     let lines = by_ns("lines");
     assert_eq!(
@@ -127,27 +134,30 @@ fn structure_has_lines_planes_and_axes_coloured_by_axis() {
 #[test]
 fn paths_hold_base_poses_in_their_frames() {
     let visualiser = Visualiser::new(&Ros2Config::default());
-    let keyframes = visualiser.keyframes(&scene(), 2.0);
+    let keyframes = visualiser.keyframes(&scene(), Stamp::default());
     assert_eq!(keyframes.header.frame_id, "map");
     assert_eq!(keyframes.poses.len(), 2);
     // 0.5 m along the optical axis: 0.5 m forward (x) of the base, no rotation.
     let p = keyframes.poses[1].pose;
     assert!((p.position.x - 0.5).abs() < 1e-12 && p.position.y.abs() < 1e-12);
     assert!((p.orientation.w.abs() - 1.0).abs() < 1e-12);
-    let poses: Vec<(f64, Isometry3<f64>)> = (0..3)
+    let poses: Vec<(Stamp, Isometry3<f64>)> = (0..3)
         .map(|k| {
             (
-                10.0 + f64::from(k) / 30.0,
+                Stamp::from_nanos(10_000_000_000 + i64::from(k) * 33_333_333),
                 Isometry3::translation(0.0, 0.0, 0.1 * f64::from(k)),
             )
         })
         .collect();
-    let path = visualiser.path(&poses, 10.1);
+    let path = visualiser.path(&poses, poses[2].0);
     assert_eq!(path.header.frame_id, "odom");
     assert_eq!(path.poses.len(), 3);
     assert_eq!(
         path.poses[2].header.stamp,
-        Time::from_secs(10.0 + 2.0 / 30.0)
+        Time {
+            sec: 10,
+            nanosec: 66_666_666
+        }
     );
     let mut bytes = Vec::new();
     encode_into(&path, "Path", &mut bytes).unwrap();
@@ -202,7 +212,7 @@ fn frame_points_are_the_matches_with_depth_in_the_camera_frame_coloured_by_inlie
         ],
         lines: Vec::new(),
     };
-    let header = frame::camera_header(Time::from_secs(3.5), "", "cam");
+    let header = frame::camera_header(Time::from(Stamp::from_nanos(3_500_000_000)), "", "cam");
     let cloud = Visualiser::new(&Ros2Config::default()).frame_points(&view, &camera, header);
     assert_eq!(cloud.header.frame_id, "cam");
     // The points without a depth are left out; the others are back-projected.
@@ -221,7 +231,7 @@ fn tracking_images_are_rgb8_or_jpeg_at_their_rate_of_the_data_clock() {
     use frame::{ImageFormat, RateGate, TrackingImage, tracking_image};
     let mut image = gfs_core::RgbImage::new(64, 48);
     image.as_mut_slice().fill([10, 200, 30]);
-    let header = frame::camera_header(Time::from_secs(1.0), "cam", "");
+    let header = frame::camera_header(Time::from(Stamp::from_nanos(1_000_000_000)), "cam", "");
     let TrackingImage::Raw(raw) = tracking_image(&image, header.clone(), ImageFormat::Raw).unwrap()
     else {
         panic!("raw expected")
@@ -254,13 +264,13 @@ fn tracking_images_are_rgb8_or_jpeg_at_their_rate_of_the_data_clock() {
 
     // 2 Hz of 30 Hz stamps over 3 s: the first frame, then every 0.5 s.
     let mut gate = RateGate::new(2.0);
-    let due: Vec<usize> = (0..90)
-        .filter(|k| gate.due(100.0 + *k as f64 / 30.0))
+    let due: Vec<i64> = (0..90)
+        .filter(|k| gate.due(Stamp::from_nanos(100_000_000_000 + k * 1_000_000_000 / 30)))
         .collect();
     assert_eq!(due, [0, 15, 30, 45, 60, 75]);
     // A camera that restarted its clock is shown at once.
-    assert!(gate.due(5.0));
-    assert!(!gate.due(5.1));
+    assert!(gate.due(Stamp::from_nanos(5_000_000_000)));
+    assert!(!gate.due(Stamp::from_nanos(5_100_000_000)));
 }
 
 #[test]

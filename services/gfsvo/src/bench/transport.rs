@@ -13,6 +13,7 @@ use crate::CliResult;
 use clap::Args;
 use gfs_core::Image;
 use gfs_core::ids::FrameId;
+use gfs_core::stamp::Stamp;
 use gfs_ipc::{
     FrameLayout, IpcRun, Mode, MsgHeader, RunId, Stage, StageStamp, TopicKind, TopicPublisher,
     TopicQos, TopicSample, TopicSubscriber, ZeroCopySend, frame_view, frame_view_mut, ipc,
@@ -155,7 +156,7 @@ fn subscriber(spec: &str) -> CliResult {
     let frames =
         TopicSubscriber::<ipc::Service, u8>::create(&run, &node, topics::FRAME.name, &frame_qos())?;
     let acks = TopicPublisher::<ipc::Service, u64>::create(&run, &node, "ack", &ack_qos(), 1)?;
-    acks.publish_slice(&MsgHeader::new(FrameId(READY), 0.0), &[0])?;
+    acks.publish_slice(&MsgHeader::new(FrameId(READY), Stamp::default()), &[0])?;
     loop {
         let sample = next(&frames, strategy)?;
         let received_ns = monotonic_ns();
@@ -295,7 +296,7 @@ fn publish_all(
     let mut child = spawn_subscriber(run, strategy)?;
     match exchange(&publisher, &acks, strategy, frames, warmup, f) {
         Ok(samples) => {
-            publisher.send(publisher.loan(&MsgHeader::new(FrameId(STOP), 0.0), 0)?)?;
+            publisher.send(publisher.loan(&MsgHeader::new(FrameId(STOP), Stamp::default()), 0)?)?;
             reap(child)?;
             Ok(samples)
         }
@@ -327,7 +328,8 @@ fn exchange(
     let mut samples = Samples::default();
     for k in 0..(warmup + frames) as u64 {
         let t0 = monotonic_ns();
-        let mut sample = publisher.loan_frame(&MsgHeader::new(FrameId(k), 0.0), &layout)?;
+        let mut sample =
+            publisher.loan_frame(&MsgHeader::new(FrameId(k), Stamp::default()), &layout)?;
         {
             let planes = frame_view_mut(&mut sample, &layout)?;
             planes.gray.copy_from_slice(f.gray.as_slice());

@@ -104,7 +104,7 @@ fn convert(args: &ConvertArgs, partial: &Path) -> CliResult<usize> {
     let mut reader = sequence.frames(Some(total));
     while let Some(frame) = reader.next() {
         let frame = frame?;
-        let stamp = Time::from_secs(frame.timestamp);
+        let stamp = Time::from(frame.timestamp);
         let time = u64::try_from(stamp.nanos()).unwrap_or(0);
         first_last = (first_last.0.min(time), first_last.1.max(time));
         let header = Header {

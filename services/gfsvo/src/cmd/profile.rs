@@ -65,6 +65,7 @@ fn processing_chart(profile: &Profile) -> LineChart {
 mod tests {
     use super::*;
     use gfs_core::ids::FrameId;
+    use gfs_core::stamp::Stamp;
     use gfs_ipc::{MsgHeader, Stage, StageStamp};
 
     const MS: u64 = 1_000_000;
@@ -75,7 +76,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let mut profile = Profile::new("lockstep");
         for k in 0..20u64 {
-            let mut h = MsgHeader::new(FrameId(k), k as f64 / 30.0);
+            let mut h = MsgHeader::new(FrameId(k), Stamp::from_nanos(k as i64 * 33_333_333));
             let t = 100 * MS * (k + 1);
             for (i, stage) in [Stage::Source, Stage::Points, Stage::Tracker]
                 .into_iter()

@@ -144,8 +144,7 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
     );
     let outcome = pipeline::run(&options)?;
     outcome.profile.write_json(&args.out.join("profile.json"))?;
-    let stamps = frames_received(&state_dir.join(FRAMES_FILE))?;
-    let timestamps: Vec<f64> = stamps.iter().map(|s| s.secs()).collect();
+    let timestamps = frames_received(&state_dir.join(FRAMES_FILE))?;
     let poses = pipeline::complete_trajectory(&outcome.received, &timestamps);
     write_outputs(&args.out, &poses)?;
     if let Some(path) = &args.mcap {
@@ -158,7 +157,6 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
         let details = RunDetails {
             profile: Some(&outcome.profile),
             restarts: &restarts,
-            stamps: &stamps,
             scenes: &scenes,
             frames: Some(FrameVisuals::new(
                 &config,

@@ -34,8 +34,8 @@ pub fn bag_topics(config: &Config) -> BagTopics {
 
 /// A bag opened for a run: its frame stamps and the config file the stages read.
 pub struct BagRun {
-    /// Colour stamps of the frames, seconds.
-    pub timestamps: Vec<f64>,
+    /// Colour stamps of the frames.
+    pub timestamps: Vec<Stamp>,
     /// The config for the stages (derived when the CameraInfo disagrees).
     pub config_path: Option<PathBuf>,
     /// The config with the bag's camera.
@@ -148,17 +148,14 @@ pub struct RunDetails<'a> {
     pub profile: Option<&'a Profile>,
     /// Restarts of each stage.
     pub restarts: &'a [(String, u32)],
-    /// The colour stamps as received, by frame id (a frame beyond them is stamped from
-    /// its seconds, [`Stamp::from_secs`]).
-    pub stamps: &'a [Stamp],
-    /// The tracker's map after each keyframe, by the keyframe's stamp (seconds).
-    pub scenes: &'a [(f64, Scene)],
+    /// The tracker's map after each keyframe, by the keyframe's stamp.
+    pub scenes: &'a [(Stamp, Scene)],
     /// The frame points and tracking images, when recorded.
     pub frames: Option<super::frame_visuals::FrameVisuals<'a>>,
 }
 
 /// Writes `/odom`, `/tf` and the status of every pose into an MCAP file (ROS 2 profile),
-/// stamped with the colour stamps, with the covariance of each tracked pose (a pose
+/// stamped with the colour stamps the poses carry, with the covariance of each tracked pose (a pose
 /// without one, predicted, gets the inflated "unknown" covariance); `/diagnostics`
 /// once a second of the camera's clock; and the visualisation topics
 /// `[ros2.visualisation]` switches on: the tracker's map after each keyframe
@@ -185,29 +182,25 @@ pub fn record_mcap(
     let mut next_report = None;
     let mut scenes = details.scenes.iter().peekable();
     let mut path_so_far = Vec::with_capacity(poses.len());
-    let mut next_path = f64::NEG_INFINITY;
+    let mut next_path = None;
     let mut keyframes = 0;
-    let ns = |stamp: f64| (stamp.max(0.0) * 1e9).round() as u64;
+    let path_period_ns = (1e9 / shown.path_rate_hz).round() as i64;
+    let log_time = |stamp: Stamp| stamp.nanos().max(0) as u64;
     for (k, pose) in poses.iter().enumerate() {
-        let stamp = details
-            .stamps
-            .get(pose.id.0 as usize)
-            .copied()
-            .or_else(|| Stamp::from_secs(pose.timestamp))
-            .unwrap_or_default();
-        while let Some((keyframe_s, scene)) = scenes.next_if(|(s, _)| *s <= pose.timestamp) {
-            let at = ns(*keyframe_s);
+        let stamp = pose.timestamp;
+        while let Some((keyframe, scene)) = scenes.next_if(|(s, _)| *s <= stamp) {
+            let at = log_time(*keyframe);
             keyframes = scene.keyframes.len();
             if shown.landmarks {
-                let cloud = visualiser.landmarks(scene, *keyframe_s);
+                let cloud = visualiser.landmarks(scene, *keyframe);
                 writer.write(LANDMARKS_TOPIC, &msg::POINT_CLOUD2, at, &cloud)?;
             }
             if shown.structure {
-                let markers = visualiser.structure(scene, *keyframe_s);
+                let markers = visualiser.structure(scene, *keyframe);
                 writer.write(STRUCTURE_TOPIC, &msg::MARKER_ARRAY, at, &markers)?;
             }
             if shown.keyframes {
-                let keyframes = visualiser.keyframes(scene, *keyframe_s);
+                let keyframes = visualiser.keyframes(scene, *keyframe);
                 writer.write(KEYFRAMES_TOPIC, &msg::PATH, at, &keyframes)?;
             }
         }
@@ -219,7 +212,7 @@ pub fn record_mcap(
             // The recorder sees the published (odom) poses only.
             map_from_odom: nalgebra::Isometry3::identity(),
         });
-        let time = stamp.nanos().max(0) as u64;
+        let time = log_time(stamp);
         if let Some(odometry) = &messages.odometry {
             writer.write(&ros2.odom_topic, &schema::ODOMETRY, time, odometry)?;
         }
@@ -230,12 +223,12 @@ pub fn record_mcap(
         if let Some(frames) = &mut details.frames {
             frames.write(&mut writer, pose, (Time::from(stamp), time), keyframes)?;
         }
-        path_so_far.push((pose.timestamp, pose.world_from_camera));
+        path_so_far.push((stamp, pose.world_from_camera));
         let last = k + 1 == poses.len();
-        if shown.path && (pose.timestamp >= next_path || last) {
-            let message = visualiser.path(&path_so_far, pose.timestamp);
+        if shown.path && (next_path.is_none_or(|next| stamp >= next) || last) {
+            let message = visualiser.path(&path_so_far, stamp);
             writer.write(PATH_TOPIC, &msg::PATH, time, &message)?;
-            next_path = pose.timestamp + 1.0 / shown.path_rate_hz;
+            next_path = Some(Stamp::from_nanos(stamp.nanos() + path_period_ns));
         }
         let now = time as i64;
         let latency_s = details

@@ -3,6 +3,7 @@
 
 use gfs_core::ids::FrameId;
 use gfs_core::scene::{FrameView, Scene};
+use gfs_core::stamp::Stamp;
 use gfs_ipc::profile::Profile;
 use gfs_ipc::{
     IpcError, IpcRun, MAX_VARIABLE_MESSAGE_BYTES, Mode, Service, Stage, TopicSubscriber,
@@ -269,7 +270,7 @@ pub fn final_poses(
 /// flagged predicted.
 pub fn complete_trajectory(
     received: &BTreeMap<u64, FramePose>,
-    timestamps: &[f64],
+    timestamps: &[Stamp],
 ) -> Vec<FramePose> {
     let mut out = Vec::with_capacity(timestamps.len());
     for (i, &timestamp) in timestamps.iter().enumerate() {
@@ -282,7 +283,8 @@ pub fn complete_trajectory(
         let after = received.range(id..).next().map(|(_, p)| p);
         let world_from_camera = match (before, after) {
             (Some(a), Some(b)) if b.timestamp > a.timestamp => {
-                let t = ((timestamp - a.timestamp) / (b.timestamp - a.timestamp)).clamp(0.0, 1.0);
+                let t = (timestamp.secs_since(a.timestamp) / b.timestamp.secs_since(a.timestamp))
+                    .clamp(0.0, 1.0);
                 a.world_from_camera.lerp_slerp(&b.world_from_camera, t)
             }
             (Some(p), _) | (None, Some(p)) => p.world_from_camera,
@@ -306,13 +308,16 @@ mod tests {
     fn missing_frames_are_interpolated_and_flagged_predicted() {
         let pose = |id: u64, x: f64| FramePose {
             id: FrameId(id),
-            timestamp: id as f64,
+            timestamp: Stamp::from_nanos(id as i64 * 1_000_000_000),
             world_from_camera: Isometry3::translation(x, 0.0, 0.0),
             status: TrackingStatus::Tracked,
         };
         let received: BTreeMap<u64, FramePose> =
             [(1, pose(1, 1.0)), (3, pose(3, 3.0))].into_iter().collect();
-        let t = complete_trajectory(&received, &[0.0, 1.0, 2.0, 3.0, 4.0]);
+        let stamps: Vec<Stamp> = (0..5)
+            .map(|k| Stamp::from_nanos(k * 1_000_000_000))
+            .collect();
+        let t = complete_trajectory(&received, &stamps);
         let xs: Vec<f64> = t
             .iter()
             .map(|p| p.world_from_camera.translation.x)
@@ -323,6 +328,6 @@ mod tests {
             .map(|p| p.status == TrackingStatus::Predicted)
             .collect();
         assert_eq!(predicted, [true, false, true, false, true]);
-        assert_eq!(t[2].timestamp, 2.0);
+        assert_eq!(t[2].timestamp, stamps[2]);
     }
 }

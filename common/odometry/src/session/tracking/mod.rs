@@ -25,6 +25,7 @@ use crate::tracking::status::TrackingStatus;
 use crate::tracking::tracker::{TrackedFrame, Tracker};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{FrameId, KeyFrameId};
+use gfs_core::stamp::Stamp;
 use gfs_lines::grid::GridConfig;
 use nalgebra::{Isometry3, Rotation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
@@ -34,8 +35,8 @@ use serde::{Deserialize, Serialize};
 pub struct FramePose {
     /// The frame.
     pub id: FrameId,
-    /// Its capture time, seconds.
-    pub timestamp: f64,
+    /// Its capture stamp, as the source gave it.
+    pub timestamp: Stamp,
     /// `world_from_camera` (T_wc) in the odometry frame (REP 105 `odom`): continuous,
     /// loop corrections never move it; the map pose is `map_from_odom * this`
     /// ([`TrackingSession::map_from_odom`]). Equal to the map pose until a loop closes.
@@ -215,7 +216,7 @@ impl TrackingSession {
     /// The pose of a frame whose features are missing: the motion-model prediction,
     /// flagged [`TrackingStatus::Predicted`], so that the trajectory keeps one line per
     /// input frame.
-    pub fn skip(&mut self, id: FrameId, timestamp: f64) -> FramePose {
+    pub fn skip(&mut self, id: FrameId, timestamp: Stamp) -> FramePose {
         let camera_from_world = self.tracker.predict().unwrap_or_else(Isometry3::identity);
         let features = FrameFeatures {
             id,

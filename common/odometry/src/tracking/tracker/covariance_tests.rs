@@ -40,7 +40,7 @@ fn a_bare_wall_keeps_the_prediction_and_publishes_no_covariance() {
     let mut tracker = Tracker::new(config, camera(), scale(), &GridConfig::default());
     let features = |k: u64, pose: &Isometry3<f64>| FrameFeatures {
         id: FrameId(k),
-        timestamp: k as f64 / 30.0,
+        timestamp: crate::testing::frame_stamp(k),
         depth: textured_planes_depth(&camera(), pose, &WALL, flat, k),
         ..FrameFeatures::default()
     };

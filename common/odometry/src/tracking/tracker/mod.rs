@@ -185,7 +185,7 @@ impl Tracker {
                 &measurement_covariance(information, self.config.depth.lever_arm_m),
                 &self
                     .jitter
-                    .covariance_with(&frame.camera_from_world, frame.features.timestamp),
+                    .covariance_with(&frame.camera_from_world, frame.features.timestamp.secs()),
             )
         })
     }
@@ -223,7 +223,7 @@ impl Tracker {
         let information = self.tracked_information.take();
         self.jitter.observe(
             &frame.camera_from_world,
-            frame.features.timestamp,
+            frame.features.timestamp.secs(),
             matches!(
                 frame.status,
                 TrackingStatus::Tracked | TrackingStatus::Degraded

@@ -103,7 +103,7 @@ mod tests {
     ) -> FrameFeatures {
         FrameFeatures {
             id: FrameId(k),
-            timestamp: k as f64 / 30.0,
+            timestamp: crate::testing::frame_stamp(k),
             planes: planes_of(camera_from_world, planes),
             ..FrameFeatures::default()
         }

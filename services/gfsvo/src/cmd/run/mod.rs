@@ -16,6 +16,7 @@ use crate::bench::stats::Summary;
 use crate::config::Config;
 use crate::pipeline::{self, PipelineOptions};
 use gfs_core::scene::Scene;
+use gfs_core::stamp::Stamp;
 use gfs_dataset::{Covariances, EVO_MAX_DIFF_S, Evaluation, Sequence, Trajectory, evaluate};
 use gfs_ipc::{Mode, RunId};
 use gfs_odometry::{FramePose, TrackingStatus};
@@ -280,7 +281,6 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         let details = super::ros2_io::RunDetails {
             profile: None,
             restarts: &stage_restarts,
-            stamps: &[],
             scenes: &keyframe_scenes,
             frames: Some(FrameVisuals::of_run(
                 &config,
@@ -418,7 +418,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
 
 /// The scenes of the keyframes by their frames' stamps (a frame id beyond the stamps,
 /// which no run makes, is left out).
-pub fn keyframe_stamps(scenes: pipeline::Scenes, timestamps: &[f64]) -> Vec<(f64, Scene)> {
+pub fn keyframe_stamps(scenes: pipeline::Scenes, timestamps: &[Stamp]) -> Vec<(Stamp, Scene)> {
     scenes
         .into_iter()
         .filter_map(|(frame, scene)| Some((*timestamps.get(frame as usize)?, scene)))
@@ -438,7 +438,7 @@ fn interrupted(done: usize, total: usize, out: &Path) -> crate::CliError {
 struct RunSource {
     config: Config,
     config_path: Option<PathBuf>,
-    timestamps: Vec<f64>,
+    timestamps: Vec<Stamp>,
     sequence: Option<Sequence>,
 }
 
@@ -472,7 +472,7 @@ pub fn write_outputs(out: &Path, poses: &[FramePose]) -> CliResult<Trajectory> {
     writeln!(status, "# frame_id timestamp status").map_err(named)?;
     for pose in poses {
         trajectory.push(pose.timestamp, pose.world_from_camera);
-        writeln!(status, "{} {:.6} {}", pose.id, pose.timestamp, pose.status).map_err(named)?;
+        writeln!(status, "{} {} {}", pose.id, pose.timestamp, pose.status).map_err(named)?;
     }
     status.flush().map_err(named)?;
     trajectory.write_tum(&out.join("trajectory.txt"))?;

@@ -21,7 +21,7 @@ fn tracker() -> Tracker {
 fn frame(k: u64, camera_from_world: &Isometry3<f64>, planes: &[([f64; 3], f64)]) -> FrameFeatures {
     FrameFeatures {
         id: FrameId(k),
-        timestamp: k as f64 / 30.0,
+        timestamp: crate::testing::frame_stamp(k),
         depth: planes_depth(&camera(), camera_from_world, planes),
         ..FrameFeatures::default()
     }
@@ -95,7 +95,7 @@ fn track_steps(
     let map = Map::default();
     let features = |k: u64, pose: &Isometry3<f64>| FrameFeatures {
         id: FrameId(k),
-        timestamp: k as f64 / 30.0,
+        timestamp: crate::testing::frame_stamp(k),
         depth: depth(k, pose),
         ..FrameFeatures::default()
     };
