@@ -49,7 +49,7 @@ mod sequence;
 pub mod trajectory;
 
 pub use decode::{Frame, gray_bt601};
-pub use depth::DepthConfig;
+pub use depth::{DepthConfig, DepthSensor};
 pub use error::DatasetError;
 pub use lists::{TUM_MAX_DIFFERENCE_S, associate_tum};
 pub use reader::FrameReader;

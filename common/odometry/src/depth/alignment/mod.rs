@@ -14,13 +14,13 @@
 //! Each sampled node `q` of the frame's [`DepthGrid`] is moved into the reference with
 //! the current estimate, projected, and paired with the reference's surface at that
 //! pixel (its four nodes around it blended, [`DepthGrid::surface_at_pixel`]) when they
-//! are close and their normals agree. The distance is weighed with the
-//! Kinect depth noise of both ends, `sigma_z(z) = 0.0012 + 0.0019 (z - 0.4)^2` m
-//! (Nguyen, Izadi and Lovell, 3DIMPVT 2012), averaged over a node's block where the
-//! sensor's noise is independent from pixel to pixel
-//! ([`DepthAlignmentConfig::independent_pixels_per_node`]).
+//! are close and their normals agree. The distance is weighed with the depth noise of
+//! both ends as the sensor's family gives it ([`DepthNoise`], `[depth] sensor`),
+//! averaged over a node's block where the sensor's noise is independent from pixel to
+//! pixel ([`DepthAlignmentConfig::independent_pixels_per_node`]).
 
 use crate::depth::grid::DepthGrid;
+use crate::depth::noise::DepthNoise;
 use gfs_optim::residuals::PointToPlane;
 use nalgebra::{Isometry3, Matrix3, Matrix6};
 use serde::Deserialize;
@@ -159,6 +159,17 @@ pub struct DepthAlignmentConfig {
     /// seed 27 with all terms: 10.0 mm, 39 frames `degraded`, -> 3.8 mm, 8; at 0.3: 4.2
     /// mm, 12).
     pub renewal_floor_overlap: f64,
+    /// Association gates of the coarse registration, metres: a frame the motion model
+    /// landed far from (a jump of 0.15 m / 7 degrees that neither the features nor the
+    /// geometry tracked from the prediction) is aligned with the reference's depth
+    /// without the motion prior, one re-association and pose optimisation per entry,
+    /// then tracked on its geometry from there; empty = such a frame is lost; default
+    /// [0.4, 0.3, 0.2, 0.12] (a turn of 7 degrees moves a wall 3 m away by 0.37 m).
+    pub registration_distance_m: Vec<f64>,
+    /// The sensor's depth noise: a camera property, filled from `[depth] sensor`, not
+    /// read from this table.
+    #[serde(skip)]
+    pub noise: DepthNoise,
 }
 
 impl Default for DepthAlignmentConfig {
@@ -185,6 +196,8 @@ impl Default for DepthAlignmentConfig {
             renewal_own_sigma_m: 0.006,
             renewal_overlap: 0.85,
             renewal_floor_overlap: 0.5,
+            registration_distance_m: vec![0.4, 0.3, 0.2, 0.12],
+            noise: DepthNoise::default(),
         }
     }
 }
@@ -195,11 +208,6 @@ impl DepthAlignmentConfig {
     pub fn occlusion_m(&self) -> f64 {
         self.max_distance_m.first().copied().unwrap_or(0.08)
     }
-}
-
-/// Standard deviation of a Kinect depth measurement at `z` metres.
-pub fn kinect_depth_sigma(z: f64) -> f64 {
-    0.0012 + 0.0019 * (z - 0.4).powi(2)
 }
 
 /// The information a frame's depth would give its own pose, were every sampled node
@@ -220,7 +228,7 @@ pub fn self_information(
     for j in (step / 2..grid.height as usize).step_by(step) {
         for i in (step / 2..width).step_by(step) {
             if let Some((q, n)) = grid.node(j * width + i) {
-                let w = 1.0 / (2.0 * kinect_depth_sigma(q.z).powi(2));
+                let w = 1.0 / (2.0 * config.noise.sigma(q.z).powi(2));
                 let l =
                     PointToPlane { point_in_camera: q }.linearize(&Isometry3::identity(), &q, &n);
                 h += l.d_pose.transpose() * l.d_pose * w;

@@ -4,7 +4,7 @@
 //! determine.
 
 use super::{TrackedFrame, Tracker};
-use crate::depth::alignment::{degraded_frame_renews, needs_new_reference};
+use crate::depth::alignment::{DepthAlignmentConfig, degraded_frame_renews, needs_new_reference};
 use crate::depth::grid::{DepthGrid, IntensityLevel, PosedGrid};
 use crate::map::Map;
 use crate::tracking::motion_prior::{PriorFor, motion_prior};
@@ -17,6 +17,12 @@ use nalgebra::{Isometry3, Matrix6};
 /// Share of the associated depth pairs that must stay inliers for a frame tracked on
 /// depth alone: below it the prediction was too far off for the association.
 const MIN_DEPTH_INLIER_SHARE: f64 = 0.5;
+/// The coarse registration's prior around the motion model's prediction, metres and
+/// degrees per axis: wide enough for a jump of 0.15 m / 7 degrees, it holds the
+/// directions the first, widest pairs leave free (a turn moves a side wall beyond the
+/// gate: its slide is free until the turn is found).
+const REGISTRATION_PRIOR_M: f64 = 0.2;
+const REGISTRATION_PRIOR_DEG: f64 = 10.0;
 
 impl Tracker {
     /// Re-optimises a frame tracked on features with the depth pairs added, in the
@@ -40,6 +46,7 @@ impl Tracker {
         let aligned = self.align_depth(
             map,
             frame,
+            Gates::Tracking,
             self.config.depth.photometric_on_features,
             sensor_variance_scale,
             IntensityLevel::Cells,
@@ -64,7 +71,7 @@ impl Tracker {
             self.refine_with_planes(map, frame);
         }
         let depth_ok = self.config.use_depth_alignment
-            && self.align_depth(map, frame, true, 1.0, level)
+            && self.align_depth(map, frame, Gates::Tracking, true, 1.0, level)
             && frame.inliers.depth > 0
             && frame.inliers.depth as f64 >= MIN_DEPTH_INLIER_SHARE * self.depth_pairs as f64;
         self.keep_plane_inliers(frame);
@@ -74,19 +81,21 @@ impl Tracker {
             && self.status_from_information() == TrackingStatus::Tracked
     }
 
-    /// The coarse-to-fine association and optimisation passes, against the reference
-    /// keyframe's depth or the last frame's ([`depth_reference`]), the nodes' sensor
-    /// variance scaled by `sensor_variance_scale`, the photometric term (with
+    /// The coarse-to-fine association and optimisation passes of `gates`, against the
+    /// reference keyframe's depth or the last frame's ([`depth_reference`]), the nodes'
+    /// sensor variance scaled by `sensor_variance_scale`, the photometric term (with
     /// `photometric`) on the intensities at `level`.
     fn align_depth(
         &mut self,
         map: &Map,
         frame: &mut TrackedFrame,
+        gates: Gates,
         photometric: bool,
         sensor_variance_scale: f64,
         level: IntensityLevel,
     ) -> bool {
-        for pass in 0..self.config.depth.max_distance_m.len() {
+        for pass in 0..gates.of(&self.config.depth).len() {
+            let gate = gates.of(&self.config.depth)[pass];
             let Some((reference, reference_from_world)) = depth_reference(
                 self.config.depth.keyframe_reference,
                 self.keyframe_depth.as_ref(),
@@ -109,7 +118,7 @@ impl Tracker {
                     grid: reference,
                     camera_from_world: &reference_from_world,
                 },
-                self.config.depth.max_distance_m[pass],
+                gate,
                 sensor_variance_scale,
             );
             self.depth_pairs = pairs.len();
@@ -244,6 +253,48 @@ impl Tracker {
         }
     }
 
+    /// Registers a frame the motion model landed far from, which neither its features
+    /// nor its geometry tracked from `predicted`, coarse to fine: its depth alone is
+    /// aligned with the reference's through the wide gates of `[tracking.depth]
+    /// registration_distance_m`, without the motion prior (whose prediction was wrong),
+    /// and the frame is tracked on its geometry from there, still without the prior. The
+    /// status as [`Self::track_on_geometry_levels`] gives it; `None` when the coarse
+    /// pairs do not hold (fewer than half of them inliers) or the fine tracking fails.
+    pub(super) fn register_far_frame(
+        &mut self,
+        map: &Map,
+        frame: &mut TrackedFrame,
+        predicted: &Isometry3<f64>,
+    ) -> Option<TrackingStatus> {
+        if !self.config.use_depth_alignment || self.config.depth.registration_distance_m.is_empty()
+        {
+            return None;
+        }
+        frame.restart(predicted);
+        frame.inliers = Default::default();
+        self.solver.set_prior(Some(PosePrior::isotropic(
+            *predicted,
+            REGISTRATION_PRIOR_M,
+            REGISTRATION_PRIOR_DEG.to_radians(),
+        )));
+        let aligned = self.align_depth(
+            map,
+            frame,
+            Gates::Registration,
+            false,
+            1.0,
+            IntensityLevel::Cells,
+        );
+        let held = frame.inliers.depth > 0
+            && frame.inliers.depth as f64 >= MIN_DEPTH_INLIER_SHARE * self.depth_pairs as f64;
+        if !aligned || !held {
+            return None;
+        }
+        self.solver.set_prior(None);
+        self.predicted_over_s = None;
+        self.track_on_geometry_levels(map, frame)
+    }
+
     /// True when the last optimisation's information, less what the depth pairs' normal
     /// noise lends it, leaves a direction with a standard deviation above `[tracking.
     /// depth] max_sigma_m`, for a frame at `camera_from_world`.
@@ -324,6 +375,24 @@ impl Tracker {
             TrackingStatus::Tracked
         } else {
             TrackingStatus::Degraded
+        }
+    }
+}
+
+/// Which association gates a run of [`Tracker::align_depth`] passes through.
+#[derive(Clone, Copy)]
+enum Gates {
+    /// `[tracking.depth] max_distance_m`: from a prediction within a few centimetres.
+    Tracking,
+    /// `[tracking.depth] registration_distance_m`: from a prediction far off.
+    Registration,
+}
+
+impl Gates {
+    fn of(self, config: &DepthAlignmentConfig) -> &[f64] {
+        match self {
+            Self::Tracking => &config.max_distance_m,
+            Self::Registration => &config.registration_distance_m,
         }
     }
 }
