@@ -5,7 +5,8 @@
 //! pairs its nodes with the reference's surfaces (point to plane); the [`photometric`]
 //! term reads the reference's intensities in the frame, fixing what the geometry leaves
 //! free; a keyframe reference's intensities are averaged over the frames tracked against
-//! it ([`reference_intensity`]). The tracker (`crate::tracking::tracker`) decides when
+//! it ([`reference_intensity`]); the camera's [`vignetting`] is estimated online and
+//! taken out of the intensities. The tracker (`crate::tracking::tracker`) decides when
 //! these terms join its pose optimisation.
 
 pub(crate) mod alignment;
@@ -13,3 +14,4 @@ pub(crate) mod grid;
 pub(crate) mod noise;
 pub(crate) mod photometric;
 pub(crate) mod reference_intensity;
+pub(crate) mod vignetting;

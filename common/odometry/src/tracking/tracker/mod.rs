@@ -18,6 +18,7 @@ pub use tracked_frame::TrackedFrame;
 
 use crate::config::TrackingConfig;
 use crate::depth::alignment::DepthAssociator;
+use crate::depth::vignetting::Vignetting;
 use crate::depth::reference_intensity::ReferenceIntensity;
 use crate::frontend::features::FrameFeatures;
 use crate::map::Map;
@@ -110,6 +111,8 @@ pub struct Tracker {
     tracked_information: Option<nalgebra::Matrix6<f64>>,
     /// The camera's velocity as the frames' data placed them: the prior's centre.
     velocity_filter: FilteredVelocity,
+    /// The colour camera's falloff, estimated from the tracked frames.
+    vignetting: Vignetting,
 }
 
 impl Tracker {
@@ -148,6 +151,7 @@ impl Tracker {
             predicted_over_s: None,
             tracked_information: None,
             velocity_filter: FilteredVelocity::default(),
+            vignetting: Vignetting::default(),
             config,
             camera,
         }
@@ -196,6 +200,7 @@ impl Tracker {
             frame.features.timestamp,
             frame.status.is_tracked(),
         );
+        self.observe_vignetting(&frame);
         let information = self.tracked_information.take();
         if frame.status == TrackingStatus::Relocalised {
             self.motion.reset_velocity();
@@ -214,6 +219,7 @@ impl Tracker {
     /// Goes on from a frame the mapping half relocalised (`frame`, at its pose, as the
     /// last frame): the motion model restarts there, without a velocity.
     pub fn relocalised(&mut self, frame: TrackedFrame) {
+        self.vignetting.next_frame();
         self.motion = MotionModel::default();
         self.motion
             .update(&frame.camera_from_world, frame.features.timestamp, true);
@@ -270,6 +276,9 @@ impl Tracker {
         sightings: &mut Sightings,
     ) -> TrackedFrame {
         self.hold_keyframe_depth(map);
+        if self.config.use_depth_alignment && self.config.depth.estimate_vignetting {
+            self.vignetting.correct(&self.camera, &mut features.depth);
+        }
         let predicted = self
             .motion
             .predict_at(features.timestamp)

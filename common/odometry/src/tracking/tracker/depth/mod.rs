@@ -224,6 +224,31 @@ impl Tracker {
         );
     }
 
+    /// Adds `frame`, when `Tracked`, and the last frame to the vignetting estimate
+    /// (`[tracking.depth] estimate_vignetting`).
+    pub(super) fn observe_vignetting(&mut self, frame: &TrackedFrame) {
+        if !self.config.use_depth_alignment || !self.config.depth.estimate_vignetting {
+            return;
+        }
+        if frame.status == TrackingStatus::Tracked
+            && let Some(last) = &self.last
+        {
+            self.vignetting.observe(
+                &self.camera,
+                PosedGrid {
+                    grid: &frame.features.depth,
+                    camera_from_world: &frame.camera_from_world,
+                },
+                PosedGrid {
+                    grid: &last.features.depth,
+                    camera_from_world: &last.camera_from_world,
+                },
+                self.config.depth.occlusion_m(),
+            );
+        }
+        self.vignetting.next_frame();
+    }
+
     /// Tracks a frame the features lost on its geometry ([`Self::track_on_geometry`]),
     /// the photometric term on the intensity cells and, where they leave the pose
     /// undetermined or a direction weak (the motion prior placed the pose along it),
