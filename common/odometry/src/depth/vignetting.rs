@@ -167,3 +167,71 @@ impl Vignetting {
         );
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::{CORNER, camera, textured_planes_depth};
+    use nalgebra::{Isometry3, Vector3};
+
+    /// A faint paint and a lamp's shading, gray levels.
+    fn paint(p: &Vector3<f64>) -> f64 {
+        150.0 + 4.0 * (2.3 * p.x + 0.9 * p.z).sin() + 3.0 * (1.7 * p.x - 2.1 * p.y).cos()
+    }
+
+    /// The bare corner from `pose`, its cells darkened by `1 - 0.3 r^2` and the
+    /// exposure by `gain`.
+    fn vignetted(pose: &Isometry3<f64>, gain: f64, seed: u64) -> DepthGrid {
+        let camera = camera();
+        let mut grid = textured_planes_depth(&camera, pose, &CORNER, paint, seed);
+        let image = grid.intensity_grid(IntensityLevel::Cells).expect("cells");
+        let (cell, width) = (f64::from(image.stride_px), image.width);
+        for (k, value) in grid.intensity.iter_mut().enumerate() {
+            let (i, j) = ((k % width) as f64, (k / width) as f64);
+            let r2 = radius_terms(&camera, (i + 0.5) * cell, (j + 0.5) * cell).x;
+            *value *= (gain * (1.0 - 0.3 * r2)) as f32;
+        }
+        grid.coarsen_intensity();
+        grid
+    }
+
+    #[test]
+    fn the_falloff_of_a_turning_camera_is_found_and_divided_out() {
+        let camera = camera();
+        let mut vignetting = Vignetting::default();
+        let mut last: Option<(DepthGrid, Isometry3<f64>)> = None;
+        // Four frames turning 2 degrees a frame, the exposure changing 5 % a frame.
+        for k in 0..4u64 {
+            let pose = Isometry3::rotation(Vector3::y() * (2.0 * k as f64).to_radians());
+            let mut grid = vignetted(&pose, 1.0 + 0.05 * k as f64, k);
+            vignetting.correct(&camera, &mut grid);
+            if let Some((reference, reference_pose)) = &last {
+                let current = PosedGrid {
+                    grid: &grid,
+                    camera_from_world: &pose,
+                };
+                let reference = PosedGrid {
+                    grid: reference,
+                    camera_from_world: reference_pose,
+                };
+                vignetting.observe(&camera, current, reference, 0.08);
+            }
+            vignetting.next_frame();
+            last = Some((grid, pose));
+        }
+        let log_falloff = |r2: f64| vignetting.coefficients.dot(&Vector2::new(r2, r2 * r2));
+        // In the corner 0.7 of the centre, halfway out 0.925.
+        assert!((log_falloff(1.0) - 0.7f64.ln()).abs() < 0.03, "{}", log_falloff(1.0));
+        assert!((log_falloff(0.25) - 0.925f64.ln()).abs() < 0.01);
+        // The next frame's cells, divided by it, are the paint's within 1 %.
+        let pose = Isometry3::rotation(Vector3::y() * 8f64.to_radians());
+        let mut grid = vignetted(&pose, 1.0, 9);
+        let plain = textured_planes_depth(&camera, &pose, &CORNER, paint, 9);
+        vignetting.correct(&camera, &mut grid);
+        let worst = (grid.intensity.iter().zip(&plain.intensity))
+            .filter(|(_, p)| **p > 0.0)
+            .map(|(v, p)| (v / p - 1.0).abs())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 0.01, "{worst}");
+    }
+}
