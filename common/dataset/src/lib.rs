@@ -42,6 +42,7 @@
 mod decode;
 mod depth;
 mod error;
+mod imu;
 mod lists;
 
 mod reader;
@@ -51,6 +52,7 @@ pub mod trajectory;
 pub use decode::{Frame, gray_bt601};
 pub use depth::{DepthConfig, DepthSensor};
 pub use error::DatasetError;
+pub use imu::{IMU_LIST, ImuList, read_imu};
 pub use lists::{TUM_MAX_DIFFERENCE_S, associate_tum};
 pub use reader::FrameReader;
 pub use sequence::{DEFAULT_READ_AHEAD, Sequence};

@@ -46,6 +46,9 @@ pub struct Config {
     /// `[ros2]`: topics, frames and lost-tracking output of the ROS 2 stage and bags.
     #[serde(default)]
     pub ros2: gfs_ros2::Ros2Config,
+    /// `[imu]`: the IMU's mount in the camera, its noise and clock offset.
+    #[serde(default)]
+    pub imu: gfs_inertial::ImuConfig,
 }
 
 /// `[pipeline]`: how long stages wait for each other and how dead stages are restarted.
@@ -167,6 +170,7 @@ impl Config {
             .scheduling
             .validate()
             .map_err(|e| e.to_string())?;
+        self.imu.validate()?;
         self.ros2.validate()
     }
 
@@ -430,6 +434,13 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("p.toml") && e.contains("points.features"), "{e}");
+        let e = Config::from_toml(&format!("{cam}[imu]\ntime_offset_s = 30.0\n"), "i.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("i.toml") && e.contains("imu.time_offset_s"),
+            "{e}"
+        );
         let bad = "[camera]\nfx=-5.0\nfy=5.0\ncx=1.0\ncy=1.0\nwidth=4\nheight=4\n";
         let e = Config::from_toml(bad, "b.toml").unwrap_err().to_string();
         assert!(e.starts_with("config b.toml: camera.fx"), "{e}");

@@ -26,51 +26,72 @@ const WOBBLE_HEIGHT_M: f64 = 0.05;
 /// Wobble frequency range (Hz): slow, like a person turning their head while walking.
 const WOBBLE_HZ: [f64; 2] = [0.07, 0.15];
 
-/// `frames` poses `T_wc` at `rate_hz`, deterministic for `seed`; `tremor(t)` gives the
-/// hand tremor (translation, yaw / pitch / roll) shared with the other kinds.
-pub(crate) fn generate(
-    scene: &Scene,
-    frames: usize,
-    seed: u64,
-    rate_hz: f64,
+/// A seeded loop: the ellipse, its start and the wobble.
+#[derive(Clone, Debug)]
+pub(crate) struct Lap {
+    centre: Vector3<f64>,
+    half_axes: (f64, f64),
+    start: f64,
+    wobble: [(f64, f64); 4],
     camera_in_body: UnitQuaternion<f64>,
     base_pitch: f64,
-    tremor: impl Fn(f64) -> (Vector3<f64>, [f64; 3]),
-) -> Vec<Isometry3<f64>> {
-    let mut rng = SplitMix64::keyed(seed, &[0x6c6f_6f70]);
-    let free = scene.free_space();
-    let half = free.half_extents();
-    // Ramanujan's perimeter of the ellipse with half axes (half.x, half.y), scaled to
-    // the lap length the target speed asks for, never beyond 90 % of the free box.
-    let (hx, hy) = (half.x, half.y);
-    let h = ((hx - hy) / (hx + hy)).powi(2);
-    let perimeter = PI * (hx + hy) * (1.0 + 3.0 * h / (10.0 + (4.0 - 3.0 * h).sqrt()));
-    let size = (MEAN_SPEEDS.0 * LAP_SECONDS / perimeter).min(0.9);
-    let (a, b) = (hx * size, hy * size);
-    let start = rng.range(0.0, TAU);
-    let wobble: [(f64, f64); 4] =
-        [0; 4].map(|_| (rng.range(WOBBLE_HZ[0], WOBBLE_HZ[1]), rng.range(0.0, TAU)));
-    let wave = |k: usize, t: f64| (TAU * wobble[k].0 * t + wobble[k].1).sin();
-    let centre = free.center().coords;
-    (0..frames)
-        .map(|i| {
-            let t = i as f64 / rate_hz;
-            let theta = start + TAU * t / LAP_SECONDS;
-            let (shake, angles) = tremor(t);
-            let position = centre
-                + Vector3::new(
-                    a * theta.cos(),
-                    b * theta.sin(),
-                    WOBBLE_HEIGHT_M * wave(3, t),
-                )
-                + shake;
-            // Looking outwards: along the radius of the ellipse's phase.
-            let body = UnitQuaternion::from_euler_angles(
-                WOBBLE_RAD[2] * wave(2, t) + angles[2],
-                base_pitch + WOBBLE_RAD[1] * wave(1, t) + angles[1],
-                theta + WOBBLE_RAD[0] * wave(0, t) + angles[0],
-            );
-            Isometry3::from_parts(Translation3::from(position), body * camera_in_body)
-        })
-        .collect()
+    tremor_phase: [f64; 6],
+}
+
+impl Lap {
+    /// The loop in `scene` for `seed`; `tremor_phase` the phases of the hand tremor
+    /// shared with the other kinds.
+    pub(crate) fn new(
+        scene: &Scene,
+        seed: u64,
+        camera_in_body: UnitQuaternion<f64>,
+        base_pitch: f64,
+        tremor_phase: [f64; 6],
+    ) -> Self {
+        let mut rng = SplitMix64::keyed(seed, &[0x6c6f_6f70]);
+        let free = scene.free_space();
+        let half = free.half_extents();
+        // Ramanujan's perimeter of the ellipse with half axes (half.x, half.y), scaled to
+        // the lap length the target speed asks for, never beyond 90 % of the free box.
+        let (hx, hy) = (half.x, half.y);
+        let h = ((hx - hy) / (hx + hy)).powi(2);
+        let perimeter = PI * (hx + hy) * (1.0 + 3.0 * h / (10.0 + (4.0 - 3.0 * h).sqrt()));
+        let size = (MEAN_SPEEDS.0 * LAP_SECONDS / perimeter).min(0.9);
+        let start = rng.range(0.0, TAU);
+        let wobble = [0; 4].map(|_| (rng.range(WOBBLE_HZ[0], WOBBLE_HZ[1]), rng.range(0.0, TAU)));
+        Self {
+            centre: free.center().coords,
+            half_axes: (hx * size, hy * size),
+            start,
+            wobble,
+            camera_in_body,
+            base_pitch,
+            tremor_phase,
+        }
+    }
+
+    fn wave(&self, k: usize, t: f64) -> f64 {
+        (TAU * self.wobble[k].0 * t + self.wobble[k].1).sin()
+    }
+
+    /// The pose `T_wc` at `t` seconds.
+    pub(crate) fn pose(&self, t: f64) -> Isometry3<f64> {
+        let (a, b) = self.half_axes;
+        let theta = self.start + TAU * t / LAP_SECONDS;
+        let (shake, angles) = crate::trajectory::tremor(&self.tremor_phase, t);
+        let position = self.centre
+            + Vector3::new(
+                a * theta.cos(),
+                b * theta.sin(),
+                WOBBLE_HEIGHT_M * self.wave(3, t),
+            )
+            + shake;
+        // Looking outwards: along the radius of the ellipse's phase.
+        let body = UnitQuaternion::from_euler_angles(
+            WOBBLE_RAD[2] * self.wave(2, t) + angles[2],
+            self.base_pitch + WOBBLE_RAD[1] * self.wave(1, t) + angles[1],
+            theta + WOBBLE_RAD[0] * self.wave(0, t) + angles[0],
+        );
+        Isometry3::from_parts(Translation3::from(position), body * self.camera_in_body)
+    }
 }

@@ -39,6 +39,7 @@
 
 mod circuit;
 mod error;
+mod imu;
 mod lens;
 mod noise;
 mod render;
@@ -54,6 +55,7 @@ mod trajectory;
 mod tum;
 
 pub use error::SynthError;
+pub use imu::SynthImu;
 pub use lens::typical_lens;
 pub use noise::{AUTO_EXPOSURE_TARGET, DEPTH_SCALE, DEPTH_SIGMA_PER_Z2, NoiseConfig};
 pub use render::{render_luma_view, render_view};

@@ -37,6 +37,9 @@ pub struct SynthConfig {
     /// Timestamp of frame 0, seconds. Default 1000.0 (a fixed epoch, so that file names
     /// and ground truth are reproducible).
     pub start_time: f64,
+    /// The camera's IMU, written as `imu.txt`. Default none.
+    #[serde(skip)]
+    pub imu: Option<crate::imu::SynthImu>,
 }
 
 impl Default for SynthConfig {
@@ -51,6 +54,7 @@ impl Default for SynthConfig {
             distortion: Distortion::default(),
             rate_hz: 30.0,
             start_time: 1000.0,
+            imu: None,
         }
     }
 }
@@ -115,6 +119,7 @@ pub struct SynthFrame {
 pub struct SynthSequence {
     config: SynthConfig,
     scene: Scene,
+    motion: trajectory::Motion,
     poses: Vec<Isometry3<f64>>,
     gains: Vec<f64>,
     lens: Option<Lens>,
@@ -129,8 +134,11 @@ impl SynthSequence {
         } else {
             30.0
         };
-        let poses =
-            trajectory::generate(&scene, config.trajectory, config.frames, config.seed, rate);
+        let motion =
+            trajectory::motion(&scene, config.trajectory, config.frames, config.seed, rate);
+        let poses: Vec<Isometry3<f64>> = (0..config.frames)
+            .map(|i| motion.pose(i as f64 / rate))
+            .collect();
         let mut rng = SplitMix64::keyed(config.seed, &[0x6761_696e]);
         let (p1, p2) = (rng.range(0.0, TAU), rng.range(0.0, TAU));
         let automatic = auto_exposure(&scene, &config, &poses, rate);
@@ -151,6 +159,7 @@ impl SynthSequence {
                 ..config
             },
             scene,
+            motion,
             poses,
             gains,
         }
@@ -179,6 +188,11 @@ impl SynthSequence {
     /// All ground-truth poses `T_wc`.
     pub fn poses(&self) -> &[Isometry3<f64>] {
         &self.poses
+    }
+
+    /// The pose `T_wc` at `t` seconds after frame 0 (between and beyond the frames).
+    pub(crate) fn pose_at(&self, t: f64) -> Isometry3<f64> {
+        self.motion.pose(t)
     }
 
     /// Timestamp of frame `i`, seconds: `start_time + i / rate_hz`.

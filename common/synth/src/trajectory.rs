@@ -102,7 +102,7 @@ const SPEED_ITERATIONS: usize = 40;
 const TIME_SCALE_RANGE: [f64; 2] = [1e-3, 1e3];
 
 /// One degree of freedom: `sum_k w_k sin(2 pi f_k tau + phase_k)`, within [-1, 1].
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Wave {
     hz: [f64; 3],
     phase: [f64; 3],
@@ -124,7 +124,8 @@ impl Wave {
 }
 
 /// The seeded shape of a trajectory before its time scales are solved.
-struct Shape {
+#[derive(Clone, Debug)]
+pub(crate) struct Shape {
     centre: Vector3<f64>,
     half: Vector3<f64>,
     position: [Wave; 3],
@@ -137,10 +138,10 @@ struct Shape {
 impl Shape {
     fn position(&self, t: f64, time_scale: f64) -> Vector3<f64> {
         let tau = t * time_scale;
+        let (shake, _) = tremor(&self.tremor_phase, t);
         let mut p = self.centre;
         for k in 0..3 {
-            let tremor = TREMOR_M * (TAU * TREMOR_HZ[k % 2] * t + self.tremor_phase[k]).sin();
-            p[k] += self.half[k] * self.position[k].at(tau) + tremor;
+            p[k] += self.half[k] * self.position[k].at(tau) + shake[k];
         }
         p
     }
@@ -167,33 +168,66 @@ fn camera_in_body() -> UnitQuaternion<f64> {
     UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(m))
 }
 
-/// `frames` poses `T_wc` sampled at `rate_hz`, deterministic for `seed`.
-pub(crate) fn generate(
+/// A camera motion defined at every instant, so that an IMU can be sampled from it
+/// between the frames.
+#[derive(Clone, Debug)]
+pub(crate) enum Motion {
+    /// Sums of sinusoids ([`TrajectoryKind::Slow`], `Fast`, `Rotation`) with their
+    /// solved time scales.
+    Waves {
+        shape: Box<Shape>,
+        translation_scale: f64,
+        rotation_scale: f64,
+    },
+    /// Laps of [`crate::circuit`].
+    Circuit(circuit::Lap),
+}
+
+impl Motion {
+    /// The pose `T_wc` at `t` seconds after the first frame.
+    pub(crate) fn pose(&self, t: f64) -> Isometry3<f64> {
+        match self {
+            Motion::Waves {
+                shape,
+                translation_scale,
+                rotation_scale,
+            } => Isometry3::from_parts(
+                Translation3::from(shape.position(t, *translation_scale)),
+                shape.rotation(t, *rotation_scale),
+            ),
+            Motion::Circuit(lap) => lap.pose(t),
+        }
+    }
+}
+
+/// The hand tremor shared by every kind at `t`: translation, and yaw / pitch / roll.
+pub(crate) fn tremor(phase: &[f64; 6], t: f64) -> (Vector3<f64>, [f64; 3]) {
+    let at = |k: usize| (TAU * TREMOR_HZ[k % 2] * t + phase[k]).sin();
+    (
+        Vector3::new(at(0), at(1), at(2)) * TREMOR_M,
+        [at(3), at(4), at(5)].map(|x| x * TREMOR_RAD),
+    )
+}
+
+/// The motion of `kind` in `scene`, deterministic for `seed`; the speeds are those of
+/// `frames` frames at `rate_hz`.
+pub(crate) fn motion(
     scene: &Scene,
     kind: TrajectoryKind,
     frames: usize,
     seed: u64,
     rate_hz: f64,
-) -> Vec<Isometry3<f64>> {
+) -> Motion {
     let mut rng = SplitMix64::keyed(seed, &[0x0072_616a, kind as u64]);
     if kind == TrajectoryKind::Loop {
         let phase = [0; 6].map(|_| rng.range(0.0, TAU));
-        let tremor = |t: f64| {
-            let at = |k: usize| (TAU * TREMOR_HZ[k % 2] * t + phase[k]).sin();
-            (
-                Vector3::new(at(0), at(1), at(2)) * TREMOR_M,
-                [at(3), at(4), at(5)].map(|x| x * TREMOR_RAD),
-            )
-        };
-        return circuit::generate(
+        return Motion::Circuit(circuit::Lap::new(
             scene,
-            frames,
             seed,
-            rate_hz,
             camera_in_body(),
             BASE_PITCH,
-            tremor,
-        );
+            phase,
+        ));
     }
     let free = scene.free_space();
     let (amplitudes, spread) = kind.amplitudes();
@@ -223,15 +257,11 @@ pub(crate) fn generate(
             shape.rotation(a, scale).angle_to(&shape.rotation(b, scale))
         })
     });
-    times
-        .iter()
-        .map(|&t| {
-            Isometry3::from_parts(
-                Translation3::from(shape.position(t, translation_scale)),
-                shape.rotation(t, rotation_scale),
-            )
-        })
-        .collect()
+    Motion::Waves {
+        shape: Box::new(shape),
+        translation_scale,
+        rotation_scale,
+    }
 }
 
 /// Mean of `step(t_i, t_i+1) / dt` over consecutive times; 0 with fewer than two.

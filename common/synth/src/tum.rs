@@ -163,6 +163,14 @@ impl SynthSequence {
         if matches!(c.noise.depth_model, DepthModel::TimeOfFlight(_)) {
             marker.push_str("sensor = \"time-of-flight\"\n");
         }
+        let imu = self.imu_texts();
+        if let Some((_, table)) = &imu {
+            marker.push_str(table);
+        }
+        if let Some((list, _)) = imu {
+            let path = dir.join("imu.txt");
+            fs::write(&path, list).map_err(io(path))?;
+        }
         for (file, text) in [
             ("rgb.txt", rgb),
             ("depth.txt", depth),

@@ -4,7 +4,9 @@
 use crate::CliResult;
 use clap::{Args, ValueEnum};
 use gfs_core::camera::DistortionModel;
-use gfs_synth::{NoiseConfig, SceneKind, Sensor, SynthConfig, SynthSequence, TrajectoryKind};
+use gfs_synth::{
+    NoiseConfig, SceneKind, Sensor, SynthConfig, SynthImu, SynthSequence, TrajectoryKind,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -29,7 +31,8 @@ gfsvo synth --sensor ideal                    # the tuned, independent noise\n  
 gfsvo synth --scene corridor --traj fast --frames 600 --seed 7\n  \
 gfsvo synth --traj loop --frames 1081          # three laps of the room, back at the start\n  \
 gfsvo synth --scene low-texture --clean --out /tmp/lowtex   # exact depth, clean colour\n  \
-gfsvo synth --distortion rational_polynomial --out /tmp/azure  # as an Azure Kinect records")]
+gfsvo synth --distortion rational_polynomial --out /tmp/azure  # as an Azure Kinect records\n  \
+gfsvo synth --traj fast --imu --out /tmp/imu   # with a RealSense-like IMU at 200 Hz")]
 pub struct SynthArgs {
     /// Scene: `room` (textured: bricks, posters, shelves, tiles), `low-texture` (plain
     /// walls, a few frames and boxes), `corridor` (14 m long, doors on both sides).
@@ -96,6 +99,12 @@ pub struct SynthArgs {
     /// equidistant: a T265-like fisheye), written into synthetic.toml's `[camera]`.
     #[arg(long, value_parser = ["none", "plumb_bob", "rational_polynomial", "equidistant"], default_value = "none")]
     distortion: String,
+    /// Also render the camera's IMU at this rate (Hz, 100-1000; 200 when given without
+    /// a value) into imu.txt: a RealSense-D435i-like BMI055 (white noise and walking
+    /// biases of the datasheet), 2 cm beside the colour camera with its own axes, its
+    /// mount and noise written into synthetic.toml's `[imu]`.
+    #[arg(long, num_args = 0..=1, default_missing_value = "200", value_name = "HZ")]
+    imu: Option<f64>,
 }
 
 /// Scene names on the command line.
@@ -145,6 +154,11 @@ impl SynthArgs {
         if !(0.0..1.0).contains(&exposure) {
             return Err(format!("--exposure {exposure} must be in [0, 1)").into());
         }
+        if let Some(rate) = self.imu
+            && !(100.0..=1000.0).contains(&rate)
+        {
+            return Err(format!("--imu {rate} Hz must be in [100, 1000]").into());
+        }
         let noise = if self.clean {
             NoiseConfig::none()
         } else {
@@ -175,6 +189,7 @@ impl SynthArgs {
             distortion: DistortionModel::from_name(&self.distortion)
                 .map(gfs_synth::typical_lens)
                 .unwrap_or_default(),
+            imu: self.imu.map(SynthImu::realsense_like),
             ..SynthConfig::default()
         })
     }
