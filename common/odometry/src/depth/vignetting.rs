@@ -142,9 +142,10 @@ impl Vignetting {
         if n < 2 {
             return;
         }
-        let (sum_y, sum_x) = self.samples.iter().fold((0.0, Vector2::zeros()), |(y, x), s| {
-            (y + s.0, x + s.1)
-        });
+        let (sum_y, sum_x) = self
+            .samples
+            .iter()
+            .fold((0.0, Vector2::zeros()), |(y, x), s| (y + s.0, x + s.1));
         let (mean_y, mean_x) = (sum_y / n as f64, sum_x / n as f64);
         for (y, x) in &self.samples {
             let (y, x) = (y - mean_y, x - mean_x);
@@ -221,7 +222,11 @@ mod tests {
         }
         let log_falloff = |r2: f64| vignetting.coefficients.dot(&Vector2::new(r2, r2 * r2));
         // In the corner 0.7 of the centre, halfway out 0.925.
-        assert!((log_falloff(1.0) - 0.7f64.ln()).abs() < 0.03, "{}", log_falloff(1.0));
+        assert!(
+            (log_falloff(1.0) - 0.7f64.ln()).abs() < 0.03,
+            "{}",
+            log_falloff(1.0)
+        );
         assert!((log_falloff(0.25) - 0.925f64.ln()).abs() < 0.01);
         // The next frame's cells, divided by it, are the paint's within 1 %.
         let pose = Isometry3::rotation(Vector3::y() * 8f64.to_radians());

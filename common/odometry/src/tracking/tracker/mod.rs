@@ -18,8 +18,8 @@ pub use tracked_frame::TrackedFrame;
 
 use crate::config::TrackingConfig;
 use crate::depth::alignment::DepthAssociator;
-use crate::depth::vignetting::Vignetting;
 use crate::depth::reference_intensity::ReferenceIntensity;
+use crate::depth::vignetting::Vignetting;
 use crate::frontend::features::FrameFeatures;
 use crate::map::Map;
 use crate::tracking::matching::{

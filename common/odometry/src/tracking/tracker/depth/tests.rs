@@ -275,7 +275,9 @@ fn jump_in_a_bare_corner(registration: Vec<f64>) -> (TrackingStatus, f64, f64) {
         if k == 5 {
             let centre = tracked.camera_from_world.inverse().translation.vector
                 - truth.inverse().translation.vector;
-            let turn = (tracked.camera_from_world * truth.inverse()).rotation.angle();
+            let turn = (tracked.camera_from_world * truth.inverse())
+                .rotation
+                .angle();
             at_jump = Some((tracked.status, centre.norm(), turn.to_degrees()));
         }
         tracker.finish_frame(tracked);
