@@ -9,7 +9,7 @@
 //! map's ([`plane_association`]) hold the pose, drawn towards the prediction by
 //! [`motion_prior`]. A frame nothing tracks is relocalised ([`relocalisation`]). What the
 //! tracker saw of each landmark is counted in [`sightings`]; each pose leaves with a
-//! [`status`].
+//! [`status`] and the covariance of [`pose_uncertainty`].
 
 pub mod matching;
 pub(crate) mod motion;
@@ -17,6 +17,7 @@ pub(crate) mod motion_prior;
 pub(crate) mod observation;
 pub(crate) mod plane_association;
 pub(crate) mod pose_solver;
+pub(crate) mod pose_uncertainty;
 pub(crate) mod ransac;
 pub(crate) mod relocalisation;
 pub(crate) mod rolling_shutter;

@@ -225,9 +225,10 @@ impl PoseSolver {
         }
     }
 
-    /// The covariance of the last solved pose ([`gfs_optim::PoseResult::covariance`]).
-    pub fn covariance(&self) -> Option<Matrix6<f64>> {
-        self.result.covariance
+    /// True when the last solve converged with inliers to a pose whose posterior
+    /// information is positive definite ([`gfs_optim::PoseResult::covariance`]).
+    pub fn converged(&self) -> bool {
+        self.result.covariance.is_some()
     }
 }
 

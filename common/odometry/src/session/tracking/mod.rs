@@ -281,7 +281,9 @@ impl TrackingSession {
         let lost = matches!(self.state, TrackingState::Lost { .. });
         let relocalisation = (lost && self.requests.pending().is_none())
             .then(|| self.request_relocalisation(&frame.features, &frame.camera_from_world));
-        let covariance = tracked.then(|| self.tracker.pose_covariance()).flatten();
+        let covariance = tracked
+            .then(|| self.tracker.pose_covariance(&frame))
+            .flatten();
         self.tracker.finish_frame(frame);
         Ok(TrackOutput {
             pose,

@@ -29,6 +29,7 @@ use crate::tracking::motion::MotionModel;
 use crate::tracking::motion_prior::{FilteredVelocity, VelocityChange};
 use crate::tracking::plane_association::PlaneAssociator;
 use crate::tracking::pose_solver::{Inliers, PoseSolver};
+use crate::tracking::pose_uncertainty::{PoseJitter, larger_of, measurement_covariance};
 use crate::tracking::ransac::{Correspondence, RigidRansac};
 use crate::tracking::relocalisation::around_reference::relocalise;
 use crate::tracking::rolling_shutter;
@@ -113,6 +114,8 @@ pub struct Tracker {
     velocity_filter: FilteredVelocity,
     /// The colour camera's falloff, estimated from the tracked frames.
     vignetting: Vignetting,
+    /// The jitter of the tracked poses the measurements do not explain.
+    jitter: PoseJitter,
 }
 
 impl Tracker {
@@ -152,6 +155,7 @@ impl Tracker {
             tracked_information: None,
             velocity_filter: FilteredVelocity::default(),
             vignetting: Vignetting::default(),
+            jitter: PoseJitter::default(),
             config,
             camera,
         }
@@ -173,9 +177,21 @@ impl Tracker {
         self.reference = Some(keyframe);
     }
 
-    /// The covariance of the last pose optimisation (of the frame just tracked).
-    pub fn pose_covariance(&self) -> Option<nalgebra::Matrix6<f64>> {
-        self.solver.covariance()
+    /// The covariance of `frame`, just tracked (before [`Self::finish_frame`]): the
+    /// larger along every direction of what its measurements determine (the motion
+    /// prior left out) and of the jitter of the poses up to it
+    /// ([`crate::tracking::pose_uncertainty`]). `None` for a frame not posed by the
+    /// optimisation (predicted, relocalised) or whose last solve did not converge.
+    pub fn pose_covariance(&self, frame: &TrackedFrame) -> Option<nalgebra::Matrix6<f64>> {
+        let information = self.tracked_information.as_ref()?;
+        self.solver.converged().then(|| {
+            larger_of(
+                &measurement_covariance(information, self.config.depth.lever_arm_m),
+                &self
+                    .jitter
+                    .covariance_with(&frame.camera_from_world, frame.features.timestamp),
+            )
+        })
     }
 
     /// The pose predicted for the next frame, if any frame was seen.
@@ -202,6 +218,14 @@ impl Tracker {
         );
         self.observe_vignetting(&frame);
         let information = self.tracked_information.take();
+        self.jitter.observe(
+            &frame.camera_from_world,
+            frame.features.timestamp,
+            matches!(
+                frame.status,
+                TrackingStatus::Tracked | TrackingStatus::Degraded
+            ),
+        );
         if frame.status == TrackingStatus::Relocalised {
             self.motion.reset_velocity();
             self.restart_velocity_filter(&frame);
@@ -224,6 +248,7 @@ impl Tracker {
         self.motion
             .update(&frame.camera_from_world, frame.features.timestamp, true);
         self.restart_velocity_filter(&frame);
+        self.jitter.restart();
         self.last = Some(frame);
     }
 
@@ -242,6 +267,7 @@ impl Tracker {
     pub fn shift_world(&mut self, new_from_old: &Isometry3<f64>) {
         self.motion.shift_world(new_from_old);
         self.velocity_filter.shift_world(new_from_old);
+        self.jitter.shift_world(new_from_old);
         if let Some(last) = &mut self.last {
             last.camera_from_world *= new_from_old.inverse();
         }
@@ -263,6 +289,7 @@ impl Tracker {
     pub fn restore(&mut self, motion: MotionModel, last: TrackedFrame) {
         self.motion = motion;
         self.restart_velocity_filter(&last);
+        self.jitter.restart();
         self.last = Some(last);
     }
 
@@ -330,7 +357,7 @@ impl Tracker {
                 frame.status = if frame.inliers.total() < self.config.degraded_inliers {
                     TrackingStatus::Degraded
                 } else {
-                    TrackingStatus::Tracked
+                    self.status_from_information()
                 };
             }
             self.tracked_information = Some(self.determined_information(&frame));
@@ -398,6 +425,9 @@ impl Tracker {
         frame.inliers.total()
     }
 }
+
+#[cfg(test)]
+mod covariance_tests;
 
 #[cfg(test)]
 mod tests {
