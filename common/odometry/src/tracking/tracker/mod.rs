@@ -368,12 +368,13 @@ impl Tracker {
         if use_depth || use_planes {
             self.keep_few_matches(map, &mut frame, &predicted);
         }
-        let on_geometry = if use_depth || use_planes {
-            self.track_on_geometry_levels(map, &mut frame)
-                .or_else(|| self.register_far_frame(map, &mut frame, &predicted))
-        } else {
-            None
-        };
+        let on_geometry =
+            if (use_depth || use_planes) && self.last_frame_is_recent(frame.features.timestamp) {
+                self.track_on_geometry_levels(map, &mut frame)
+                    .or_else(|| self.register_far_frame(map, &mut frame, &predicted))
+            } else {
+                None
+            };
         if let Some(status) = on_geometry {
             frame.status = status;
             self.tracked_information = Some(self.determined_information(&frame));

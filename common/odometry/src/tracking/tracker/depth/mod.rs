@@ -23,6 +23,9 @@ const MIN_DEPTH_INLIER_SHARE: f64 = 0.5;
 /// gate: its slide is free until the turn is found).
 const REGISTRATION_PRIOR_M: f64 = 0.2;
 const REGISTRATION_PRIOR_DEG: f64 = 10.0;
+/// Longest interval from a tracked last frame that tracking on geometry and the coarse
+/// registration bridge, seconds (three frames at 30 Hz).
+const MAX_REGISTRATION_INTERVAL_S: f64 = 0.1;
 
 impl Tracker {
     /// Re-optimises a frame tracked on features with the depth pairs added, in the
@@ -279,7 +282,8 @@ impl Tracker {
     }
 
     /// Registers a frame the motion model landed far from, which neither its features
-    /// nor its geometry tracked from `predicted`, coarse to fine: its depth alone is
+    /// nor its geometry tracked from `predicted`, the last frame tracked and recent,
+    /// coarse to fine: its depth alone is
     /// aligned with the reference's through the wide gates of `[tracking.depth]
     /// registration_distance_m`, without the motion prior (whose prediction was wrong),
     /// and the frame is tracked on its geometry from there, still without the prior. The
@@ -291,7 +295,9 @@ impl Tracker {
         frame: &mut TrackedFrame,
         predicted: &Isometry3<f64>,
     ) -> Option<TrackingStatus> {
-        if !self.config.use_depth_alignment || self.config.depth.registration_distance_m.is_empty()
+        if !self.config.use_depth_alignment
+            || self.config.depth.registration_distance_m.is_empty()
+            || !self.last_frame_is_recent(frame.features.timestamp)
         {
             return None;
         }
@@ -318,6 +324,16 @@ impl Tracker {
         self.solver.set_prior(None);
         self.predicted_over_s = None;
         self.track_on_geometry_levels(map, frame)
+    }
+
+    /// Whether the last frame was tracked, at most [`MAX_REGISTRATION_INTERVAL_S`] before
+    /// `timestamp`:
+    /// after frames without a pose (the camera blind or skipped) its depth is of another
+    /// view, and tracking on geometry against it would find a wall or a floor anywhere.
+    pub(super) fn last_frame_is_recent(&self, timestamp: f64) -> bool {
+        self.last.as_ref().is_some_and(|l| {
+            l.status.is_tracked() && timestamp - l.features.timestamp <= MAX_REGISTRATION_INTERVAL_S
+        })
     }
 
     /// True when the last optimisation's information, less what the depth pairs' normal
