@@ -2,7 +2,8 @@
 //! arguments and config values, a garbage ground-truth line, dataset paths and run ids
 //! that start with `-`, unreadable images (one policy in every mode: the same
 //! trajectory inline and in the pipeline), a run whose frames are all unusable, and
-//! SIGINT during an inline run (the outputs hold the frames done, nothing more).
+//! SIGINT during an inline run (the outputs hold the frames done, nothing more, and
+//! the map so far is saved), and map files that do not fit the run.
 
 mod common;
 
@@ -243,6 +244,8 @@ fn a_run_with_no_usable_frame_fails_and_says_why() {
 fn sigint_during_an_inline_run_writes_only_the_frames_done() {
     let out = out_dir("sigint_inline");
     let _ = std::fs::remove_dir_all(&out);
+    let map = out_dir("sigint_inline.gfsmap");
+    let _ = std::fs::remove_file(&map);
     let mut child = Command::new(binaries().join("gfsvo"))
         .args([
             "--log",
@@ -253,6 +256,8 @@ fn sigint_during_an_inline_run_writes_only_the_frames_done() {
             "--out",
         ])
         .arg(&out)
+        .arg("--save-map")
+        .arg(&map)
         .arg(common::sequence())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -280,6 +285,47 @@ fn sigint_during_an_inline_run_writes_only_the_frames_done() {
         poses > 0 && poses < common::FRAMES,
         "{poses} poses after SIGINT"
     );
+    map_files_are_used_or_refused_naming_them(&map);
+}
+
+/// The map an interrupted run saved localises a run on its sequence; on a sequence of
+/// another camera, or cut short, it is refused with an error naming it.
+fn map_files_are_used_or_refused_naming_them(map: &Path) {
+    let name = map.display().to_string();
+    let localise = |dataset: &Path, map: &Path| {
+        let out = out_dir("map_file_localise");
+        let _ = std::fs::remove_dir_all(&out);
+        Command::new(binaries().join("gfsvo"))
+            .args([
+                "run",
+                "--mode",
+                "inline",
+                "--json",
+                "--frames",
+                "10",
+                "--localize",
+            ])
+            .arg("--load-map")
+            .arg(map)
+            .arg("--out")
+            .arg(&out)
+            .arg(dataset)
+            .output()
+            .unwrap()
+    };
+    let o = localise(common::sequence(), map);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(json["keyframes_added"], 0, "{json}");
+    assert_eq!(
+        json["status"]["predicted"],
+        serde_json::Value::Null,
+        "{json}"
+    );
+    expect_error(&localise(small(), map), &[&name, "another camera"]);
+    let bytes = std::fs::read(map).unwrap();
+    std::fs::write(map, &bytes[..bytes.len() - 100]).unwrap();
+    expect_error(&localise(common::sequence(), map), &[&name, "truncated"]);
 }
 
 /// `gfsvo run --json` carries the NEES of the published covariances, `gfsvo eval

@@ -34,7 +34,7 @@
 //! **Layout**, by the paper's parts: `frontend` (the features of a frame),
 //! [`tracking`] (every frame against the local map), `depth` (depth and intensity as
 //! tracking terms where points are few), `mapping` (keyframes and the local BA),
-//! [`map`], [`loop_closing`], and [`session`] (the two halves, their messages and the
+//! [`map`] (and [`map_file`], a map kept on disk), [`loop_closing`], and [`session`] (the two halves, their messages and the
 //! in-process entry point); `config` holds the tables of all of them.
 #![warn(missing_docs)]
 
@@ -43,6 +43,7 @@ mod depth;
 mod frontend;
 pub mod loop_closing;
 pub mod map;
+pub mod map_file;
 mod mapping;
 pub mod session;
 #[cfg(test)]

@@ -14,6 +14,7 @@ mod plane;
 mod point;
 mod retired;
 mod scene;
+mod validate;
 
 /// The keyframes other than `kf` named in `observations` (one list per landmark `kf`
 /// sees), with how many landmarks each shares, at least `min_shared`, strongest first

@@ -10,6 +10,7 @@ use crate::config::OdometryConfig;
 use crate::loop_closing::{LoopCloser, LoopClosure, LoopCorrection, apply_correction};
 use crate::map::manhattan::WorldManhattan;
 use crate::map::{Map, NeighbourhoodBounds};
+use crate::map_file::SavedMap;
 use crate::mapping::mapper::Mapper;
 use crate::tracking::matching::ScalePyramid;
 use crate::tracking::relocalisation::against_map::MapRelocaliser;
@@ -37,6 +38,13 @@ pub struct MappingSession {
     /// last lost frame was found against.
     centre: Option<KeyFrameId>,
     neighbourhood: NeighbourhoodBounds,
+    /// Localisation on a loaded map: no keyframe is added, no landmark changed; a
+    /// keyframe request only moves the tracker's neighbourhood to its reference.
+    fixed: bool,
+    /// Keyframes made since this mapping half started.
+    keyframes_added: usize,
+    /// Lost frames found in the whole map since this mapping half started.
+    relocalisations: usize,
 }
 
 impl MappingSession {
@@ -66,6 +74,9 @@ impl MappingSession {
                 view_radius_m: config.tracking.view_radius_m,
                 view_angle_rad: config.tracking.view_angle_deg.to_radians(),
             },
+            fixed: false,
+            keyframes_added: 0,
+            relocalisations: 0,
         }
     }
 
@@ -92,6 +103,55 @@ impl MappingSession {
         &self.closures
     }
 
+    /// The world Manhattan axes of the map.
+    pub fn manhattan(&self) -> &WorldManhattan {
+        &self.manhattan
+    }
+
+    /// Keyframes made since this mapping half started.
+    pub fn keyframes_added(&self) -> usize {
+        self.keyframes_added
+    }
+
+    /// Lost frames found in the whole map since this mapping half started.
+    pub fn relocalisations(&self) -> usize {
+        self.relocalisations
+    }
+
+    /// Takes over a map saved by an earlier run, before the first request; with
+    /// `fixed` (localisation) it is never changed. Its keyframes' bags of words are
+    /// computed for the relocaliser now, and for the loop closer at its first search.
+    pub fn start_from(&mut self, saved: SavedMap, fixed: bool) {
+        self.map = saved.map;
+        self.map.canonicalise();
+        self.manhattan = saved.manhattan;
+        self.fixed = fixed;
+        self.relocaliser.sync(&self.map);
+    }
+
+    /// The keyframe of the map nearest to `world_from_camera`: the nearest of those
+    /// sharing its view (the tracker's view radius and angle), else the nearest centre.
+    pub fn nearest_keyframe(&self, world_from_camera: &Isometry3<f64>) -> Option<KeyFrameId> {
+        let bounds = &self.neighbourhood;
+        let mut sharing = Vec::new();
+        self.map.keyframes_sharing_view(
+            world_from_camera,
+            bounds.view_radius_m,
+            bounds.view_angle_rad,
+            &mut sharing,
+        );
+        let distance = |kf: &crate::map::KeyFrame| {
+            (kf.world_from_camera().translation.vector - world_from_camera.translation.vector)
+                .norm()
+        };
+        sharing.first().map(|(_, kf)| *kf).or_else(|| {
+            self.map
+                .keyframes()
+                .min_by(|a, b| distance(a).total_cmp(&distance(b)).then(a.id.cmp(&b.id)))
+                .map(|kf| kf.id)
+        })
+    }
+
     /// The number of the last request applied (0 before the first).
     pub fn last_applied(&self) -> u64 {
         self.last_applied
@@ -112,6 +172,9 @@ impl MappingSession {
         mut request: KeyFrameRequest,
         stop: &dyn Fn() -> bool,
     ) -> MapUpdate {
+        if self.fixed {
+            return self.recentre(&request);
+        }
         if request.seq > self.last_applied {
             if request.reset {
                 self.map.clear_keyframes();
@@ -140,9 +203,26 @@ impl MappingSession {
                 self.apply(&correction);
             }
             self.relocaliser.sync(&self.map);
+            self.keyframes_added += 1;
             self.last_applied = request.seq;
             self.last_keyframe = Some(kf);
             self.centre = Some(kf);
+            self.relocalised = None;
+        }
+        self.update()
+    }
+
+    /// A fixed map's answer to a keyframe request: the neighbourhood of the frame's
+    /// reference keyframe, which the answer names as its keyframe (the tracker refers
+    /// to it and centres on it). Nothing else changes.
+    fn recentre(&mut self, request: &KeyFrameRequest) -> MapUpdate {
+        if request.seq > self.last_applied {
+            self.last_applied = request.seq;
+            let reference = request.tracked_against.map(|a| a.reference);
+            if let Some(kf) = reference.filter(|kf| self.map.keyframe(*kf).is_some()) {
+                self.centre = Some(kf);
+            }
+            self.last_keyframe = self.centre;
             self.relocalised = None;
         }
         self.update()
@@ -176,6 +256,7 @@ impl MappingSession {
             self.last_keyframe = None;
             if let Some(found) = &self.relocalised {
                 self.centre = Some(found.keyframe);
+                self.relocalisations += 1;
             }
         }
         self.update()

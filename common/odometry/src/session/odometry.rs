@@ -7,12 +7,14 @@ use crate::frontend::features::{FeatureError, FrameFeatures};
 use crate::loop_closing::LoopClosure;
 use crate::map::Map;
 use crate::map::manhattan::WorldManhattan;
+use crate::map_file::{MapCamera, MapFileError, SavedMap, save_map};
 use crate::session::final_trajectory::FrameAnchor;
-use crate::session::{FramePose, MappingSession, TrackingSession};
+use crate::session::{FramePose, LoadedMapUse, MappingSession, TrackingSession};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::FrameId;
 use gfs_lines::grid::GridConfig;
 use nalgebra::{Isometry3, Matrix6, Rotation3};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 /// Time spent on the last frame.
@@ -56,6 +58,42 @@ impl Odometry {
     /// The global map (for inspection and tests).
     pub fn map(&self) -> &Map {
         self.mapping.map()
+    }
+
+    /// Takes over a map saved by an earlier run, before the first frame: mapping goes
+    /// on in it, or with `use_.localise` each frame is only tracked against it. The
+    /// first frame is looked for around the keyframe nearest to `use_.initial_pose`,
+    /// else in the whole map; poses are in the map's frame.
+    pub fn start_from(&mut self, saved: SavedMap, use_: &LoadedMapUse) {
+        self.mapping.start_from(saved, use_.localise);
+        let centre = use_
+            .initial_pose
+            .and_then(|pose| self.mapping.nearest_keyframe(&pose));
+        let map = match centre {
+            Some(kf) => self.mapping.update_around(kf).map,
+            None => Map::default(),
+        };
+        let manhattan = self.mapping.manhattan().clone();
+        self.tracking.start_on_map(map, manhattan, centre, use_);
+    }
+
+    /// Writes the global map to a map file (atomically); returns the bytes written.
+    ///
+    /// # Errors
+    /// [`MapFileError`] naming the file.
+    pub fn save_map(&self, path: &Path, camera: &MapCamera) -> Result<u64, MapFileError> {
+        save_map(path, camera, self.mapping.map(), self.mapping.manhattan())
+    }
+
+    /// Keyframes made since the start (0 in localisation).
+    pub fn keyframes_added(&self) -> usize {
+        self.mapping.keyframes_added()
+    }
+
+    /// Lost frames found again in the whole map since the start (the first frame on a
+    /// loaded map without a pose hint among them).
+    pub fn relocalisations(&self) -> usize {
+        self.mapping.relocalisations()
     }
 
     /// The tracking half (for inspection and tests: its map is the neighbourhood the

@@ -4,8 +4,10 @@
 //! the maps the mapping half sends back.
 
 mod checkpoint;
+mod saved_map;
 
 pub use checkpoint::TrackingCheckpoint;
+pub use saved_map::LoadedMapUse;
 
 use super::messages::{
     KeyFrameRequest, MapUpdate, RelocalisationRequest, Relocalised, TrackedAgainst,
@@ -99,6 +101,8 @@ pub struct TrackingSession {
     relocalising: Option<(FrameFeatures, Isometry3<f64>)>,
     /// The pose of the frame the last map taken in relocalised, until taken.
     relocalised: Option<FramePose>,
+    /// How a session started on a saved map stands in it.
+    saved: saved_map::OnSavedMap,
 }
 
 impl TrackingSession {
@@ -124,6 +128,7 @@ impl TrackingSession {
             requested_pose: None,
             relocalising: None,
             relocalised: None,
+            saved: saved_map::OnSavedMap::default(),
             config,
         }
     }
@@ -244,9 +249,10 @@ impl TrackingSession {
             }
             self.frames_since_keyframe += 1;
         }
-        // A frame that starts a map is its first keyframe.
+        // A frame that starts a map is its first keyframe; a fixed map gets none.
         let wants_keyframe = start.is_some()
             || (tracked
+                && !self.saved.fixed
                 && self.requests.pending().is_none()
                 && needs_keyframe(
                     &self.config.keyframes,
@@ -277,7 +283,11 @@ impl TrackingSession {
             pose.world_from_camera = self.map_from_odom.inverse() * pose.world_from_camera;
         }
         let reset = start.is_some_and(|s| s.reset);
-        let keyframe = wants_keyframe.then(|| self.request_keyframe(&frame, reset));
+        let keyframe = if wants_keyframe {
+            Some(self.request_keyframe(&frame, reset))
+        } else {
+            self.recentre_request(&frame, tracked)
+        };
         let lost = matches!(self.state, TrackingState::Lost { .. });
         let relocalisation = (lost && self.requests.pending().is_none())
             .then(|| self.request_relocalisation(&frame.features, &frame.camera_from_world));
@@ -345,6 +355,7 @@ impl TrackingSession {
         }
         tracing::info!(frame = %found.frame, keyframe = %found.keyframe, inliers = found.inliers, "relocalised against the whole map");
         self.relocalised = Some(pose);
+        self.saved.placed(Some(found.keyframe));
         self.tracker.set_reference(found.keyframe);
         self.tracker.relocalised(frame);
         self.state = TrackingState::Tracking;
@@ -375,10 +386,11 @@ impl TrackingSession {
         }
         if frame.status.is_tracked() {
             self.state = TrackingState::Tracking;
+            self.saved.placed(None);
             return (frame, None);
         }
         let frames = lost + 1;
-        if frames < self.config.tracking.frames_before_new_map {
+        if frames < self.config.tracking.frames_before_new_map || self.saved.keeps_map() {
             self.state = TrackingState::Lost { frames };
             return (frame, None);
         }
@@ -420,6 +432,7 @@ impl TrackingSession {
         if let Some(kf) = update.keyframe {
             self.tracker.set_reference(kf);
             self.frames_since_keyframe = 0;
+            self.saved.centre = Some(kf);
         }
         let asked = pending.map(|(_, frame)| frame);
         // Only a tracker still lost goes back to the frame (realtime: it may have found
@@ -438,6 +451,11 @@ impl TrackingSession {
     /// (both `camera_from_world`): the jump goes into `map_from_odom`, so the map pose
     /// jumps and the published odometry stays on the prediction (REP 105).
     fn take_in_jump(&mut self, found: &Isometry3<f64>, predicted: &Isometry3<f64>) {
+        if self.saved.unplaced {
+            // The first pose on a saved map: nothing was published yet to jump from,
+            // so the odometry starts in the map's frame.
+            return;
+        }
         self.map_from_odom = found.inverse() * predicted * self.map_from_odom;
     }
 

@@ -1,13 +1,15 @@
 //! `--mode inline`: the front end and the odometry in this thread, frame after frame
 //! (no processes, no shared memory): the library path the tests also drive.
 
+use super::map_file::MapArgs;
 use crate::CliResult;
 use crate::bench::stats::Summary;
 use crate::config::Config;
 use gfs_core::Image;
 use gfs_core::ids::FrameId;
-use gfs_dataset::Sequence;
+use gfs_dataset::{DEFAULT_READ_AHEAD, Sequence};
 use gfs_odometry::loop_closing::LoopClosure;
+use gfs_odometry::map_file::MapCamera;
 use gfs_odometry::{FinalTrajectory, FramePose, Frontend, Odometry, OdometryConfig};
 use indicatif::ProgressBar;
 use std::collections::BTreeMap;
@@ -41,15 +43,22 @@ pub struct InlineOutcome {
     pub interrupted: bool,
     /// The covariance of each tracked frame's published pose, by frame id.
     pub covariances: crate::pipeline::Covariances,
+    /// Keyframes made by this run (0 when localising in a loaded map).
+    pub keyframes_added: usize,
+    /// Lost frames found again in the whole map (the first frame on a loaded map
+    /// without a pose hint among them).
+    pub relocalisations: usize,
 }
 
 /// Frames per block of [`InlineOutcome::tracking_blocks`].
 pub const BLOCK_FRAMES: usize = 500;
 
-/// Runs the first `total` frames of `sequence` (and draws the final map `with_scene`).
+/// Runs `total` frames of `sequence` from frame `map.start` (and draws the final map
+/// `with_scene`), from and to the map files of `map`.
 ///
 /// # Errors
-/// When a stage's config is invalid or a frame's features do not line up.
+/// When a stage's config is invalid, a frame's features do not line up, or a map file
+/// cannot be read or written.
 pub fn run(
     config: &Config,
     odometry_config: OdometryConfig,
@@ -57,6 +66,7 @@ pub fn run(
     total: usize,
     progress: &ProgressBar,
     with_scene: bool,
+    map: &MapArgs,
 ) -> CliResult<InlineOutcome> {
     let pinhole = config.camera()?.pinhole;
     let mut frontend = Frontend::new(
@@ -71,13 +81,20 @@ pub fn run(
     frontend.set_keep_planes(odometry_config.tracking.use_planes);
     let levels =
         u8::try_from(config.points.levels).map_err(|_| "points.levels must be below 256")?;
+    let scale_factor = f64::from(config.points.scale_factor);
     let mut odometry = Odometry::new(
         odometry_config,
         pinhole,
-        f64::from(config.points.scale_factor),
+        scale_factor,
         levels,
         &config.lines.grid,
     );
+    let map_camera = MapCamera {
+        camera: pinhole,
+        scale_factor,
+        levels,
+    };
+    map.load_into(&mut odometry, &map_camera)?;
     let mut times = StageTimes::default();
     let mut poses = Vec::with_capacity(total);
     let mut finals = FinalTrajectory::with_capacity(total);
@@ -88,7 +105,8 @@ pub fn run(
         Image::<u8>::new(width, height),
         Image::<f32>::new(width, height),
     );
-    for (index, frame) in sequence.frames(Some(total)).enumerate() {
+    let frames = sequence.frames_from(map.start, Some(map.start + total), DEFAULT_READ_AHEAD);
+    for (index, frame) in (map.start..).zip(frames) {
         if crate::pipeline::signals::interrupted() {
             interrupted = true;
             break;
@@ -136,6 +154,7 @@ pub fn run(
         poses.push(pose);
         progress.inc(1);
     }
+    map.save_from(&odometry, &map_camera)?;
     Ok(InlineOutcome {
         poses: finals.finish(odometry.map(), &poses),
         odometry: poses,
@@ -148,6 +167,8 @@ pub fn run(
         scene: with_scene.then(|| odometry.map().scene()),
         interrupted,
         covariances,
+        keyframes_added: odometry.keyframes_added(),
+        relocalisations: odometry.relocalisations(),
     })
 }
 

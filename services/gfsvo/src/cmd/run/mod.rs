@@ -7,6 +7,7 @@
 
 pub mod checks;
 mod inline;
+pub mod map_file;
 mod map_png;
 
 use crate::CliResult;
@@ -87,6 +88,9 @@ pub struct RunArgs {
     /// record` writes).
     #[arg(long, default_value = "zstd")]
     pub mcap_compression: Compression,
+    /// Map files and the first frame.
+    #[command(flatten)]
+    pub map: map_file::MapArgs,
 }
 
 /// Per-stage timings of a run, as printed.
@@ -121,16 +125,17 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         Some(gt) => Some(Trajectory::read_tum(&gt)?),
         None => None,
     };
-    let total = args
-        .frames
-        .map_or(source.timestamps.len(), |n| n.min(source.timestamps.len()));
-    let timestamps = &source.timestamps[..total];
+    args.map.check(args.mode, source.timestamps.len())?;
+    let remaining = source.timestamps.len() - args.map.start;
+    let total = args.frames.map_or(remaining, |n| n.min(remaining));
+    let timestamps = &source.timestamps[args.map.start..args.map.start + total];
     let clock = std::time::Instant::now();
 
     let mut tracking_blocks = Vec::new();
     let mut tracker_map = None;
     let mut scene = None;
     let mut keyframe_scenes = Vec::new();
+    let mut map_counts = None;
     let (poses, odometry, loops, processed, timings, keyframes, restarts, covariances) = if args
         .mode
         == RunMode::Inline
@@ -146,6 +151,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             total,
             &progress,
             args.map_png.is_some(),
+            &args.map,
         )?;
         progress.finish_and_clear();
         if outcome.interrupted {
@@ -159,6 +165,11 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         scene = outcome.scene;
         let processed = outcome.poses.len();
         let covariances = outcome.covariances;
+        map_counts = Some(serde_json::json!({
+            "loops_closed": outcome.loops.len(),
+            "keyframes_added": outcome.keyframes_added,
+            "relocalisations": outcome.relocalisations,
+        }));
         (
             outcome.poses,
             outcome.odometry,
@@ -330,6 +341,11 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         }
         if let Some(found) = &loops {
             object["loops"] = serde_json::to_value(found)?;
+        }
+        if let Some(serde_json::Value::Object(counts)) = map_counts {
+            for (key, value) in counts {
+                object[key.as_str()] = value;
+            }
         }
         if let Some(c) = &consistency {
             object["nees"] = super::eval::consistency_json(c);
