@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-/// `[depth]` table of a config: scale and valid range of the depth sensor.
+/// `[depth]` table of a config: scale, valid range and kind of the depth sensor.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DepthConfig {
@@ -12,6 +12,27 @@ pub struct DepthConfig {
     pub min_m: f32,
     /// Farthest valid depth in metres; farther values are missing. Default 10.
     pub max_m: f32,
+    /// How the sensor measures depth, which sets how its noise grows with the depth.
+    /// Default structured light (Kinect v1, Xtion).
+    pub sensor: DepthSensor,
+    /// A stereo sensor's baseline, metres. Default 0.05 (RealSense D435).
+    pub baseline_m: f64,
+    /// A stereo sensor's disparity matching error, pixels. Default 0.08 (RealSense
+    /// D435's subpixel figure).
+    pub disparity_sigma_px: f64,
+}
+
+/// How a depth sensor measures: its noise follows from it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DepthSensor {
+    /// A projected pattern triangulated by an infrared camera (Kinect v1, Xtion).
+    #[default]
+    StructuredLight,
+    /// Time of flight (Kinect v2, Azure Kinect).
+    TimeOfFlight,
+    /// Two cameras matched (RealSense D4xx, ZED): `baseline_m`, `disparity_sigma_px`.
+    Stereo,
 }
 
 impl Default for DepthConfig {
@@ -20,6 +41,9 @@ impl Default for DepthConfig {
             scale: 5000.0,
             min_m: 0.1,
             max_m: 10.0,
+            sensor: DepthSensor::default(),
+            baseline_m: 0.05,
+            disparity_sigma_px: 0.08,
         }
     }
 }
@@ -61,6 +85,7 @@ mod tests {
             scale: 1000.0,
             min_m: 0.3,
             max_m: 100.0,
+            ..DepthConfig::default()
         };
         assert_eq!(seven_scenes.metres(1500), 1.5);
         // 65535 is the 7-Scenes "no depth" marker even when the range would admit 65.5 m.

@@ -53,7 +53,7 @@ mod sequence;
 pub mod trajectory;
 
 pub use decode::{Frame, gray_bt601};
-pub use depth::DepthConfig;
+pub use depth::{DepthConfig, DepthSensor};
 pub use error::DatasetError;
 pub use imu::{IMU_LIST, ImuList, read_imu};
 pub use lists::{TUM_MAX_DIFFERENCE_S, associate_tum};

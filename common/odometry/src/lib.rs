@@ -53,10 +53,9 @@ pub mod tracking;
 pub use config::{
     KeyframeConfig, LoopClosingConfig, MappingConfig, OdometryConfig, TrackingConfig,
 };
-pub use depth::alignment::{
-    DepthAlignmentConfig, DepthAssociator, kinect_depth_sigma, self_information,
-};
+pub use depth::alignment::{DepthAlignmentConfig, DepthAssociator, self_information};
 pub use depth::grid::DepthGrid;
+pub use depth::noise::DepthNoise;
 pub use frontend::features::{FeatureError, FrameFeatures, FrameSurfaces};
 pub use frontend::{
     DEPTH_GRID_STEP, Frontend, FrontendError, FrontendTimings, StructureExtractor, SurfaceRequest,

@@ -49,7 +49,9 @@ impl Config {
             max,
             max.is_finite() && max > min,
             "finite, above depth.min_m",
-        )
+        )?;
+        d.positive("baseline_m", self.depth.baseline_m)?;
+        d.positive("disparity_sigma_px", self.depth.disparity_sigma_px)
     }
 
     fn validate_lines(&self) -> Result<(), FieldError> {

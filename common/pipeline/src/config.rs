@@ -5,7 +5,8 @@
 
 use crate::scheduling::SchedulingConfig;
 use gfs_core::camera::{Camera, CameraConfig};
-use gfs_dataset::DepthConfig;
+use gfs_dataset::{DepthConfig, DepthSensor};
+use gfs_odometry::DepthNoise;
 use serde::Deserialize;
 use std::path::Path;
 
@@ -247,16 +248,32 @@ impl Config {
         Self::from_toml(text, &format!("configs/{name}.toml"))
     }
 
-    /// The odometry's part of the config.
+    /// The odometry's part of the config, with the camera's readout time and depth noise.
     pub fn odometry(&self) -> gfs_odometry::OdometryConfig {
+        let mut tracking = gfs_odometry::TrackingConfig {
+            readout_s: self.camera.readout_s,
+            ..self.tracking.clone()
+        };
+        tracking.set_depth_noise(self.depth_noise());
         gfs_odometry::OdometryConfig {
-            tracking: gfs_odometry::TrackingConfig {
-                readout_s: self.camera.readout_s,
-                ..self.tracking.clone()
-            },
+            tracking,
             keyframes: self.keyframes.clone(),
             mapping: self.mapping.clone(),
             loop_closing: self.loop_closing.clone(),
+        }
+    }
+
+    /// The depth noise of `[depth] sensor`: a stereo pair's from its baseline, matching
+    /// error and the camera's focal length (the depth registered to the colour image).
+    pub fn depth_noise(&self) -> DepthNoise {
+        match self.depth.sensor {
+            DepthSensor::StructuredLight => DepthNoise::STRUCTURED_LIGHT,
+            DepthSensor::TimeOfFlight => DepthNoise::TIME_OF_FLIGHT,
+            DepthSensor::Stereo => DepthNoise::stereo(
+                self.camera.fx,
+                self.depth.baseline_m,
+                self.depth.disparity_sigma_px,
+            ),
         }
     }
 

@@ -158,16 +158,10 @@ impl SynthSequence {
             cam.height,
             DEPTH_SCALE
         );
-        // Only the idealised sensor's noise is known to be independent; a camera like
-        // the real ones gets what a user of the real one writes: intrinsics and depth.
-        if c.noise.depth_model == DepthModel::Independent {
-            marker.push_str(
-                "\n# The rendered noise is independent from pixel to pixel and from frame to\n\
-                 # frame: every depth node is aligned and sampled, against the newest\n\
-                 # keyframe's depth (see configs/synthetic.toml).\n\
-                 [tracking.depth]\nsource_step = 1\nindependent_pixels_per_node = 4.0\n\
-                 photometric_sigma = 0.4\nkeyframe_reference = true\n",
-            );
+        // What a user of such a camera writes: intrinsics and depth, and for a time-of-
+        // flight camera its kind (the depth noise follows from it).
+        if matches!(c.noise.depth_model, DepthModel::TimeOfFlight(_)) {
+            marker.push_str("sensor = \"time-of-flight\"\n");
         }
         let imu = self.imu_texts();
         if let Some((_, table)) = &imu {

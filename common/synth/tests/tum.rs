@@ -94,6 +94,7 @@ fn write_tum_round_trips_images_depth_lists_and_ground_truth() {
     struct Marker {
         camera: CameraConfig,
         depth: toml::Table,
+        #[serde(default)]
         tracking: toml::Table,
     }
     let marker: Marker =
@@ -104,13 +105,8 @@ fn write_tum_round_trips_images_depth_lists_and_ground_truth() {
         (cam.fx, cam.cx, 64)
     );
     assert_eq!(marker.depth["scale"].as_float(), Some(5000.0));
-    // The rendered noise is independent from pixel to pixel and from frame to frame:
-    // every node is sampled, against the newest keyframe's depth.
-    let depth = &marker.tracking["depth"];
-    assert_eq!(depth["source_step"].as_integer(), Some(1));
-    assert_eq!(depth["independent_pixels_per_node"].as_float(), Some(4.0));
-    assert_eq!(depth["photometric_sigma"].as_float(), Some(0.4));
-    assert_eq!(depth["keyframe_reference"].as_bool(), Some(true));
+    // Nothing tuned to the rendered noise: the odometry's defaults hold every camera.
+    assert!(marker.tracking.is_empty(), "{:?}", marker.tracking);
     fs::remove_dir_all(&dir).unwrap();
 }
 

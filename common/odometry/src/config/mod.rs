@@ -4,6 +4,7 @@
 mod validate;
 
 use crate::depth::alignment::DepthAlignmentConfig;
+use crate::depth::noise::DepthNoise;
 use crate::tracking::matching::{LineMatchConfig, PointMatchConfig};
 use crate::tracking::plane_association::PlaneTrackingConfig;
 use gfs_optim::{BaConfig, PoseOptimizerConfig};
@@ -34,11 +35,12 @@ pub struct TrackingConfig {
     /// Align the frame's depth with the last frame's in the pose optimisation
     /// (point-to-plane, `[tracking.depth]`), track on depth alone when the features
     /// fail, and flag `degraded` from the pose's information instead of an inlier count
-    /// (ablation switch). Default false.
+    /// (ablation switch). Default true: where points run out (white walls, a bare
+    /// floor) the depth holds the pose.
     pub use_depth_alignment: bool,
     /// Planes as landmarks: the frame's BFS planes associated with the map's planes
     /// (plane-to-plane errors in the pose optimisation), and map planes created, fused
-    /// and culled with the keyframes (ablation switch). Default false.
+    /// and culled with the keyframes (ablation switch). Default true.
     pub use_planes: bool,
     /// `[tracking.planes]`: plane association gates and weights.
     pub planes: PlaneTrackingConfig,
@@ -93,8 +95,8 @@ impl Default for TrackingConfig {
         Self {
             use_lines: true,
             use_manhattan: true,
-            use_depth_alignment: false,
-            use_planes: false,
+            use_depth_alignment: true,
+            use_planes: true,
             planes: PlaneTrackingConfig::default(),
             depth: DepthAlignmentConfig::default(),
             points: PointMatchConfig::default(),
@@ -117,6 +119,13 @@ impl Default for TrackingConfig {
 }
 
 impl TrackingConfig {
+    /// Sets the sensor's depth noise (a camera property, from `[depth] sensor`) where
+    /// the depth alignment and the plane terms weigh their errors with it.
+    pub fn set_depth_noise(&mut self, noise: DepthNoise) {
+        self.depth.noise = noise;
+        self.planes.depth_noise = noise;
+    }
+
     /// Inliers a tracking strategy needs before local-map tracking adds its matches:
     /// half of `min_inliers` (ORB-SLAM2: 10 of 30 after the motion model).
     pub fn min_step_inliers(&self) -> usize {

@@ -94,6 +94,14 @@ impl TrackingConfig {
                     .all(|g| *g > 0.0 && g.is_finite()),
             "one or more positive distances",
         )?;
+        d.require(
+            "registration_distance_m",
+            format!("{:?}", self.depth.registration_distance_m),
+            (self.depth.registration_distance_m.iter())
+                .all(|g| *g > self.depth.occlusion_m() && g.is_finite()),
+            "distances beyond the first of tracking.depth.max_distance_m (none: no coarse \
+             registration)",
+        )?;
         d.within(
             "max_normal_angle_deg",
             self.depth.max_normal_angle_deg,

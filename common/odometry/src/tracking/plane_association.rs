@@ -3,12 +3,12 @@
 //! paired with the frame plane whose normal and offset agree within the gates; the pairs
 //! become plane-to-plane observations of the pose optimisation.
 //!
-//! The offset's noise is a fraction of the Kinect depth noise at the plane's centroid
-//! ([`crate::kinect_depth_sigma`]): a plane fitted over thousands of pixels averages the
+//! The offset's noise is a fraction of the sensor's depth noise at the plane's centroid
+//! ([`crate::DepthNoise`]): a plane fitted over thousands of pixels averages the
 //! random part away, but not the depth bias that grows with the range, which is what
 //! the offset carries.
 
-use crate::depth::alignment::kinect_depth_sigma;
+use crate::depth::noise::DepthNoise;
 use crate::map::{Map, MapPlane};
 use gfs_core::ids::MapPlaneId;
 use gfs_optim::PlaneObservation;
@@ -30,10 +30,14 @@ pub struct PlaneTrackingConfig {
     /// of a region of noisy pixel normals; 0.25 measured worse on the synthetic
     /// low-texture rooms and TUM fr1: the map planes' own errors are not that small).
     pub normal_sigma_deg: f64,
-    /// Factor on the Kinect depth noise at the plane's centroid that gives the
+    /// Factor on the sensor's depth noise at the plane's centroid that gives the
     /// offset's standard deviation; default 1.0 (the fit over the region averages the
     /// per-pixel noise, but the range-dependent bias and the normal's error stay).
     pub offset_sigma_scale: f64,
+    /// The sensor's depth noise: a camera property, filled from `[depth] sensor`, not
+    /// read from this table.
+    #[serde(skip)]
+    pub depth_noise: DepthNoise,
 }
 
 impl Default for PlaneTrackingConfig {
@@ -43,6 +47,7 @@ impl Default for PlaneTrackingConfig {
             max_offset_m: 0.05,
             normal_sigma_deg: 1.0,
             offset_sigma_scale: 1.0,
+            depth_noise: DepthNoise::default(),
         }
     }
 }
@@ -57,7 +62,8 @@ pub fn measured(plane: &Plane) -> PlaneToPlane {
 
 /// The weights of a frame plane's error (normal, offset), 1/rad^2 and 1/m^2.
 fn information(config: &PlaneTrackingConfig, plane: &Plane) -> (f64, f64) {
-    let offset_sigma = config.offset_sigma_scale * kinect_depth_sigma(f64::from(plane.centroid[2]));
+    let offset_sigma =
+        config.offset_sigma_scale * config.depth_noise.sigma(f64::from(plane.centroid[2]));
     (
         config.normal_sigma_deg.to_radians().powi(-2),
         offset_sigma.powi(-2),

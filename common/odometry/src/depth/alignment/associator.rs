@@ -1,7 +1,7 @@
 //! The depth pairs of a frame with its reference: association, the per-pair noise and
 //! the normals' noise estimated from the pairs (see the module above).
 
-use super::{DepthAlignmentConfig, kinect_depth_sigma};
+use super::DepthAlignmentConfig;
 use crate::depth::grid::PosedGrid;
 use gfs_core::camera::PinholeCamera;
 use gfs_optim::DepthObservation;
@@ -89,7 +89,7 @@ impl DepthAssociator {
                 // a coarse pass pairs points up to its gate apart, and a tight chi-square
                 // test would reject the only pairs of a weakly seen direction.
                 let sigma2 = sensor_variance_scale
-                    * (kinect_depth_sigma(q.z).powi(2) + kinect_depth_sigma(s.z).powi(2))
+                    * (config.noise.sigma(q.z).powi(2) + config.noise.sigma(s.z).powi(2))
                     + (max_distance_m / 3.0).powi(2);
                 let tangential = offset - n * n.dot(&offset);
                 self.variances
@@ -103,7 +103,13 @@ impl DepthAssociator {
                 });
             }
         }
-        self.normal_variance = tangent_variance_from_angles(&mut self.angles2);
+        // Beyond the tracking's coarsest gate the pass is the coarse registration's,
+        // whose paired normals differ by the pose's error, not by their noise.
+        self.normal_variance = if max_distance_m > config.occlusion_m() {
+            0.0
+        } else {
+            tangent_variance_from_angles(&mut self.angles2)
+        };
         // The reference normal's tilt across the nodes' tangential offset (they are
         // not the same surface point) is in the distance too. The Kinect model was
         // fitted to depth deviations from planes, its normals' tilt included; only a

@@ -14,13 +14,13 @@
 //! Each sampled node `q` of the frame's [`DepthGrid`] is moved into the reference with
 //! the current estimate, projected, and paired with the reference's surface at that
 //! pixel (its four nodes around it blended, [`DepthGrid::surface_at_pixel`]) when they
-//! are close and their normals agree. The distance is weighed with the
-//! Kinect depth noise of both ends, `sigma_z(z) = 0.0012 + 0.0019 (z - 0.4)^2` m
-//! (Nguyen, Izadi and Lovell, 3DIMPVT 2012), averaged over a node's block where the
-//! sensor's noise is independent from pixel to pixel
-//! ([`DepthAlignmentConfig::independent_pixels_per_node`]).
+//! are close and their normals agree. The distance is weighed with the depth noise of
+//! both ends as the sensor's family gives it ([`DepthNoise`], `[depth] sensor`),
+//! averaged over a node's block where the sensor's noise is independent from pixel to
+//! pixel ([`DepthAlignmentConfig::independent_pixels_per_node`]).
 
 use crate::depth::grid::DepthGrid;
+use crate::depth::noise::DepthNoise;
 use gfs_optim::residuals::PointToPlane;
 use nalgebra::{Isometry3, Matrix3, Matrix6};
 use serde::Deserialize;
@@ -52,8 +52,10 @@ pub struct DepthAlignmentConfig {
     pub max_sigma_m: f64,
     /// The depth term is added to a frame tracked on features when the features alone
     /// leave a direction with a standard deviation above this, metres; 0 = always;
-    /// default 0.002 (always: TUM fr1 0.0151 m and 7-Scenes 0.0344 m instead of 0.0115
-    /// and 0.0208 m, the real depth's bias weighs against well-placed features).
+    /// default 0.004 (always: TUM fr1 0.0151 m and 7-Scenes 0.0344 m instead of 0.0115
+    /// and 0.0208 m, the real depth's bias weighs against well-placed features; 0.002
+    /// with the depth noise of the sensor family took 7-Scenes' first 300 frames from
+    /// 16.77 to 22.27 mm, the Kinect-like low-texture rooms within 0.03 mm either way).
     pub weak_sigma_m: f64,
     /// Align with the depth of the newest keyframe (at its pose in the map, while the map
     /// holds it) instead of the last frame's; default false. Frame to keyframe, the
@@ -159,6 +161,22 @@ pub struct DepthAlignmentConfig {
     /// seed 27 with all terms: 10.0 mm, 39 frames `degraded`, -> 3.8 mm, 8; at 0.3: 4.2
     /// mm, 12).
     pub renewal_floor_overlap: f64,
+    /// Estimate the colour camera's vignetting from the tracked frames and divide it out
+    /// of each frame's intensities before the photometric term reads them
+    /// (`vignetting.rs`); default true (a Kinect-like camera with 30 % falloff turning
+    /// in a bare room: 466 mm ATE without, every frame `tracked`).
+    pub estimate_vignetting: bool,
+    /// Association gates of the coarse registration, metres: a frame the motion model
+    /// landed far from (a jump of 0.15 m / 7 degrees that neither the features nor the
+    /// geometry tracked from the prediction) is aligned with the reference's depth
+    /// without the motion prior, one re-association and pose optimisation per entry,
+    /// then tracked on its geometry from there; empty = such a frame is lost; default
+    /// [0.4, 0.3, 0.2, 0.12] (a turn of 7 degrees moves a wall 3 m away by 0.37 m).
+    pub registration_distance_m: Vec<f64>,
+    /// The sensor's depth noise: a camera property, filled from `[depth] sensor`, not
+    /// read from this table.
+    #[serde(skip)]
+    pub noise: DepthNoise,
 }
 
 impl Default for DepthAlignmentConfig {
@@ -169,7 +187,7 @@ impl Default for DepthAlignmentConfig {
             max_normal_angle_deg: 30.0,
             lever_arm_m: 2.0,
             max_sigma_m: 0.015,
-            weak_sigma_m: 0.002,
+            weak_sigma_m: 0.004,
             keyframe_reference: false,
             average_reference_views: true,
             photometric_sigma: 0.5,
@@ -185,6 +203,9 @@ impl Default for DepthAlignmentConfig {
             renewal_own_sigma_m: 0.006,
             renewal_overlap: 0.85,
             renewal_floor_overlap: 0.5,
+            estimate_vignetting: true,
+            registration_distance_m: vec![0.4, 0.3, 0.2, 0.12],
+            noise: DepthNoise::default(),
         }
     }
 }
@@ -195,11 +216,6 @@ impl DepthAlignmentConfig {
     pub fn occlusion_m(&self) -> f64 {
         self.max_distance_m.first().copied().unwrap_or(0.08)
     }
-}
-
-/// Standard deviation of a Kinect depth measurement at `z` metres.
-pub fn kinect_depth_sigma(z: f64) -> f64 {
-    0.0012 + 0.0019 * (z - 0.4).powi(2)
 }
 
 /// The information a frame's depth would give its own pose, were every sampled node
@@ -220,7 +236,7 @@ pub fn self_information(
     for j in (step / 2..grid.height as usize).step_by(step) {
         for i in (step / 2..width).step_by(step) {
             if let Some((q, n)) = grid.node(j * width + i) {
-                let w = 1.0 / (2.0 * kinect_depth_sigma(q.z).powi(2));
+                let w = 1.0 / (2.0 * config.noise.sigma(q.z).powi(2));
                 let l =
                     PointToPlane { point_in_camera: q }.linearize(&Isometry3::identity(), &q, &n);
                 h += l.d_pose.transpose() * l.d_pose * w;

@@ -158,7 +158,7 @@ fn an_averaged_node_is_weighed_with_its_normals_tilt_across_the_pair() {
     current.normals.iter_mut().for_each(|n| *n = tilt);
     let current_from_world = Isometry3::translation(-0.021, 0.0, 0.0);
     let gate = 0.015;
-    let sensor = 2.0 * kinect_depth_sigma(2.0).powi(2);
+    let sensor = 2.0 * config.noise.sigma(2.0).powi(2);
     let association = (gate / 3.0f64).powi(2);
     let mut associator = DepthAssociator::default();
     let mut pair_weights = |scale: f64| {

@@ -19,6 +19,7 @@ pub use tracked_frame::{FrameMatches, TrackedFrame};
 use crate::config::TrackingConfig;
 use crate::depth::alignment::DepthAssociator;
 use crate::depth::reference_intensity::ReferenceIntensity;
+use crate::depth::vignetting::Vignetting;
 use crate::frontend::features::FrameFeatures;
 use crate::map::Map;
 use crate::tracking::matching::{
@@ -111,6 +112,8 @@ pub struct Tracker {
     tracked_information: Option<nalgebra::Matrix6<f64>>,
     /// The camera's velocity as the frames' data placed them: the prior's centre.
     velocity_filter: FilteredVelocity,
+    /// The colour camera's falloff, estimated from the tracked frames.
+    vignetting: Vignetting,
     /// The jitter of the tracked poses the measurements do not explain.
     jitter: PoseJitter,
 }
@@ -151,6 +154,7 @@ impl Tracker {
             predicted_over_s: None,
             tracked_information: None,
             velocity_filter: FilteredVelocity::default(),
+            vignetting: Vignetting::default(),
             jitter: PoseJitter::default(),
             config,
             camera,
@@ -220,6 +224,7 @@ impl Tracker {
             frame.features.timestamp,
             frame.status.is_tracked(),
         );
+        self.observe_vignetting(&frame);
         let information = self.tracked_information.take();
         self.jitter.observe(
             &frame.camera_from_world,
@@ -246,6 +251,7 @@ impl Tracker {
     /// Goes on from a frame the mapping half relocalised (`frame`, at its pose, as the
     /// last frame): the motion model restarts there, without a velocity.
     pub fn relocalised(&mut self, frame: TrackedFrame) {
+        self.vignetting.next_frame();
         self.motion = MotionModel::default();
         self.motion
             .update(&frame.camera_from_world, frame.features.timestamp, true);
@@ -305,6 +311,9 @@ impl Tracker {
         sightings: &mut Sightings,
     ) -> TrackedFrame {
         self.hold_keyframe_depth(map);
+        if self.config.use_depth_alignment && self.config.depth.estimate_vignetting {
+            self.vignetting.correct(&self.camera, &mut features.depth);
+        }
         let predicted = self
             .motion
             .predict_at(features.timestamp)
@@ -367,9 +376,14 @@ impl Tracker {
         if use_depth || use_planes {
             self.keep_few_matches(map, &mut frame, &predicted);
         }
-        if (use_depth || use_planes)
-            && let Some(status) = self.track_on_geometry_levels(map, &mut frame)
-        {
+        let on_geometry =
+            if (use_depth || use_planes) && self.last_frame_is_recent(frame.features.timestamp) {
+                self.track_on_geometry_levels(map, &mut frame)
+                    .or_else(|| self.register_far_frame(map, &mut frame, &predicted))
+            } else {
+                None
+            };
+        if let Some(status) = on_geometry {
             frame.status = status;
             self.tracked_information = Some(self.determined_information(&frame));
             self.add_view_to_reference(map, &frame);

@@ -4,7 +4,7 @@
 //! determine.
 
 use super::{TrackedFrame, Tracker};
-use crate::depth::alignment::{degraded_frame_renews, needs_new_reference};
+use crate::depth::alignment::{DepthAlignmentConfig, degraded_frame_renews, needs_new_reference};
 use crate::depth::grid::{DepthGrid, IntensityLevel, PosedGrid};
 use crate::map::Map;
 use crate::tracking::motion_prior::{PriorFor, motion_prior};
@@ -17,6 +17,15 @@ use nalgebra::{Isometry3, Matrix6};
 /// Share of the associated depth pairs that must stay inliers for a frame tracked on
 /// depth alone: below it the prediction was too far off for the association.
 const MIN_DEPTH_INLIER_SHARE: f64 = 0.5;
+/// The coarse registration's prior around the motion model's prediction, metres and
+/// degrees per axis: wide enough for a jump of 0.15 m / 7 degrees, it holds the
+/// directions the first, widest pairs leave free (a turn moves a side wall beyond the
+/// gate: its slide is free until the turn is found).
+const REGISTRATION_PRIOR_M: f64 = 0.2;
+const REGISTRATION_PRIOR_DEG: f64 = 10.0;
+/// Longest interval from a tracked last frame that tracking on geometry and the coarse
+/// registration bridge, seconds (three frames at 30 Hz).
+const MAX_REGISTRATION_INTERVAL_S: f64 = 0.1;
 
 impl Tracker {
     /// Re-optimises a frame tracked on features with the depth pairs added, in the
@@ -40,6 +49,7 @@ impl Tracker {
         let aligned = self.align_depth(
             map,
             frame,
+            Gates::Tracking,
             self.config.depth.photometric_on_features,
             sensor_variance_scale,
             IntensityLevel::Cells,
@@ -64,7 +74,7 @@ impl Tracker {
             self.refine_with_planes(map, frame);
         }
         let depth_ok = self.config.use_depth_alignment
-            && self.align_depth(map, frame, true, 1.0, level)
+            && self.align_depth(map, frame, Gates::Tracking, true, 1.0, level)
             && frame.inliers.depth > 0
             && frame.inliers.depth as f64 >= MIN_DEPTH_INLIER_SHARE * self.depth_pairs as f64;
         self.keep_plane_inliers(frame);
@@ -74,19 +84,21 @@ impl Tracker {
             && self.status_from_information() == TrackingStatus::Tracked
     }
 
-    /// The coarse-to-fine association and optimisation passes, against the reference
-    /// keyframe's depth or the last frame's ([`depth_reference`]), the nodes' sensor
-    /// variance scaled by `sensor_variance_scale`, the photometric term (with
+    /// The coarse-to-fine association and optimisation passes of `gates`, against the
+    /// reference keyframe's depth or the last frame's ([`depth_reference`]), the nodes'
+    /// sensor variance scaled by `sensor_variance_scale`, the photometric term (with
     /// `photometric`) on the intensities at `level`.
     fn align_depth(
         &mut self,
         map: &Map,
         frame: &mut TrackedFrame,
+        gates: Gates,
         photometric: bool,
         sensor_variance_scale: f64,
         level: IntensityLevel,
     ) -> bool {
-        for pass in 0..self.config.depth.max_distance_m.len() {
+        for pass in 0..gates.of(&self.config.depth).len() {
+            let gate = gates.of(&self.config.depth)[pass];
             let Some((reference, reference_from_world)) = depth_reference(
                 self.config.depth.keyframe_reference,
                 self.keyframe_depth.as_ref(),
@@ -109,7 +121,7 @@ impl Tracker {
                     grid: reference,
                     camera_from_world: &reference_from_world,
                 },
-                self.config.depth.max_distance_m[pass],
+                gate,
                 sensor_variance_scale,
             );
             self.depth_pairs = pairs.len();
@@ -215,6 +227,31 @@ impl Tracker {
         );
     }
 
+    /// Adds `frame`, when `Tracked`, and the last frame to the vignetting estimate
+    /// (`[tracking.depth] estimate_vignetting`).
+    pub(super) fn observe_vignetting(&mut self, frame: &TrackedFrame) {
+        if !self.config.use_depth_alignment || !self.config.depth.estimate_vignetting {
+            return;
+        }
+        if frame.status == TrackingStatus::Tracked
+            && let Some(last) = &self.last
+        {
+            self.vignetting.observe(
+                &self.camera,
+                PosedGrid {
+                    grid: &frame.features.depth,
+                    camera_from_world: &frame.camera_from_world,
+                },
+                PosedGrid {
+                    grid: &last.features.depth,
+                    camera_from_world: &last.camera_from_world,
+                },
+                self.config.depth.occlusion_m(),
+            );
+        }
+        self.vignetting.next_frame();
+    }
+
     /// Tracks a frame the features lost on its geometry ([`Self::track_on_geometry`]),
     /// the photometric term on the intensity cells and, where they leave the pose
     /// undetermined or a direction weak (the motion prior placed the pose along it),
@@ -242,6 +279,61 @@ impl Tracker {
         } else {
             (on_cells || on_coarse).then_some(TrackingStatus::Degraded)
         }
+    }
+
+    /// Registers a frame the motion model landed far from, which neither its features
+    /// nor its geometry tracked from `predicted`, the last frame tracked and recent,
+    /// coarse to fine: its depth alone is
+    /// aligned with the reference's through the wide gates of `[tracking.depth]
+    /// registration_distance_m`, without the motion prior (whose prediction was wrong),
+    /// and the frame is tracked on its geometry from there, still without the prior. The
+    /// status as [`Self::track_on_geometry_levels`] gives it; `None` when the coarse
+    /// pairs do not hold (fewer than half of them inliers) or the fine tracking fails.
+    pub(super) fn register_far_frame(
+        &mut self,
+        map: &Map,
+        frame: &mut TrackedFrame,
+        predicted: &Isometry3<f64>,
+    ) -> Option<TrackingStatus> {
+        if !self.config.use_depth_alignment
+            || self.config.depth.registration_distance_m.is_empty()
+            || !self.last_frame_is_recent(frame.features.timestamp)
+        {
+            return None;
+        }
+        frame.restart(predicted);
+        frame.inliers = Default::default();
+        self.solver.set_prior(Some(PosePrior::isotropic(
+            *predicted,
+            REGISTRATION_PRIOR_M,
+            REGISTRATION_PRIOR_DEG.to_radians(),
+        )));
+        let aligned = self.align_depth(
+            map,
+            frame,
+            Gates::Registration,
+            false,
+            1.0,
+            IntensityLevel::Cells,
+        );
+        let held = frame.inliers.depth > 0
+            && frame.inliers.depth as f64 >= MIN_DEPTH_INLIER_SHARE * self.depth_pairs as f64;
+        if !aligned || !held {
+            return None;
+        }
+        self.solver.set_prior(None);
+        self.predicted_over_s = None;
+        self.track_on_geometry_levels(map, frame)
+    }
+
+    /// Whether the last frame was tracked, at most [`MAX_REGISTRATION_INTERVAL_S`] before
+    /// `timestamp`:
+    /// after frames without a pose (the camera blind or skipped) its depth is of another
+    /// view, and tracking on geometry against it would find a wall or a floor anywhere.
+    pub(super) fn last_frame_is_recent(&self, timestamp: f64) -> bool {
+        self.last.as_ref().is_some_and(|l| {
+            l.status.is_tracked() && timestamp - l.features.timestamp <= MAX_REGISTRATION_INTERVAL_S
+        })
     }
 
     /// True when the last optimisation's information, less what the depth pairs' normal
@@ -324,6 +416,24 @@ impl Tracker {
             TrackingStatus::Tracked
         } else {
             TrackingStatus::Degraded
+        }
+    }
+}
+
+/// Which association gates a run of [`Tracker::align_depth`] passes through.
+#[derive(Clone, Copy)]
+enum Gates {
+    /// `[tracking.depth] max_distance_m`: from a prediction within a few centimetres.
+    Tracking,
+    /// `[tracking.depth] registration_distance_m`: from a prediction far off.
+    Registration,
+}
+
+impl Gates {
+    fn of(self, config: &DepthAlignmentConfig) -> &[f64] {
+        match self {
+            Self::Tracking => &config.max_distance_m,
+            Self::Registration => &config.registration_distance_m,
         }
     }
 }

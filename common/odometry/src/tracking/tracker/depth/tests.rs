@@ -248,3 +248,52 @@ fn two_parallel_walls_do_not_track_a_frame_on_depth() {
     let tracked = tracker.track(&map, frame(1, &moved, &walls), &mut Sightings::default());
     assert_eq!(tracked.status, TrackingStatus::Predicted);
 }
+
+/// Walks a bare corner (a floor, a wall ahead and a cabinet's side: `CORNER`, no point
+/// or line) 1 cm a frame for four frames, then jumps 0.15 m and 7 degrees, which the
+/// motion model does not know, and walks on. The jump frame's status and its camera
+/// centre's and rotation's errors, metres and degrees, with the coarse registration's
+/// gates `registration`.
+fn jump_in_a_bare_corner(registration: Vec<f64>) -> (TrackingStatus, f64, f64) {
+    let mut config = TrackingConfig::default();
+    config.depth.registration_distance_m = registration;
+    let mut tracker = Tracker::new(config, camera(), scale(), &GridConfig::default());
+    let map = Map::default();
+    let walk = gfs_core::se3::exp(&Vector6::new(0.01, 0.0, 0.0, 0.0, 0.0, 0.0));
+    let axis = nalgebra::Vector3::new(0.3, 1.0, 0.2).normalize();
+    let turn = axis * 7f64.to_radians();
+    let jump = gfs_core::se3::exp(&Vector6::new(0.12, 0.03, -0.085, turn.x, turn.y, turn.z));
+    assert!((jump.translation.vector.norm() - 0.15).abs() < 1e-3);
+    let mut truth = Isometry3::identity();
+    let mut first = TrackedFrame::untracked(frame(0, &truth, &CORNER), truth);
+    first.status = TrackingStatus::Tracked;
+    tracker.finish_frame(first);
+    let mut at_jump = None;
+    for k in 1..8 {
+        truth = if k == 5 { jump * truth } else { walk * truth };
+        let tracked = tracker.track(&map, frame(k, &truth, &CORNER), &mut Sightings::default());
+        if k == 5 {
+            let centre = tracked.camera_from_world.inverse().translation.vector
+                - truth.inverse().translation.vector;
+            let turn = (tracked.camera_from_world * truth.inverse())
+                .rotation
+                .angle();
+            at_jump = Some((tracked.status, centre.norm(), turn.to_degrees()));
+        }
+        tracker.finish_frame(tracked);
+    }
+    at_jump.expect("frame 5 tracked")
+}
+
+#[test]
+fn a_jump_in_a_bare_corner_is_registered_coarse_to_fine() {
+    let (status, metres, degrees) = jump_in_a_bare_corner(vec![0.4, 0.3, 0.2, 0.12]);
+    assert_eq!(status, TrackingStatus::Tracked);
+    assert!(metres < 0.01 && degrees < 0.5, "{metres} m, {degrees} deg");
+    // Without the coarse registration the frame is not tracked where it is.
+    let (status, metres, degrees) = jump_in_a_bare_corner(Vec::new());
+    assert!(
+        status != TrackingStatus::Tracked || metres > 0.01 || degrees > 0.5,
+        "{status:?}, {metres} m, {degrees} deg"
+    );
+}
