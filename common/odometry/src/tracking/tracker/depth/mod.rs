@@ -10,6 +10,7 @@ use crate::map::Map;
 use crate::tracking::motion_prior::{PriorFor, motion_prior};
 use crate::tracking::status::TrackingStatus;
 use gfs_core::ids::KeyFrameId;
+use gfs_core::stamp::Stamp;
 use gfs_optim::analyse_constraint;
 use gfs_optim::residuals::PosePrior;
 use nalgebra::{Isometry3, Matrix6};
@@ -327,12 +328,12 @@ impl Tracker {
     }
 
     /// Whether the last frame was tracked, at most [`MAX_REGISTRATION_INTERVAL_S`] before
-    /// `timestamp`:
-    /// after frames without a pose (the camera blind or skipped) its depth is of another
+    /// `stamp`: after frames without a pose (the camera blind or skipped) its depth is of another
     /// view, and tracking on geometry against it would find a wall or a floor anywhere.
-    pub(super) fn last_frame_is_recent(&self, timestamp: f64) -> bool {
+    pub(super) fn last_frame_is_recent(&self, stamp: Stamp) -> bool {
         self.last.as_ref().is_some_and(|l| {
-            l.status.is_tracked() && timestamp - l.features.timestamp <= MAX_REGISTRATION_INTERVAL_S
+            l.status.is_tracked()
+                && stamp.secs_since(l.features.timestamp) <= MAX_REGISTRATION_INTERVAL_S
         })
     }
 
