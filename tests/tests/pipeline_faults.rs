@@ -234,6 +234,7 @@ fn surfaces_trajectory(tag: &str, mode: &str, tracking: &str, extra: &[&str]) ->
 }
 
 const DEPTH_AND_PLANES: &str = "use_depth_alignment = true\nuse_planes = true";
+const FEATURES_ONLY: &str = "use_depth_alignment = false\nuse_planes = false";
 
 #[test]
 fn with_depth_and_planes_lockstep_and_inline_give_the_same_trajectory() {
@@ -253,7 +254,7 @@ fn without_the_manhattan_axes_the_depth_and_plane_terms_still_get_their_surfaces
     // surfaces: the depth and plane terms then changed no pose.
     let axes_off = ["--no-manhattan"];
     let inline = surfaces_trajectory("n", "inline", DEPTH_AND_PLANES, &axes_off);
-    let features_only = surfaces_trajectory("f", "inline", "", &axes_off);
+    let features_only = surfaces_trajectory("f", "inline", FEATURES_ONLY, &axes_off);
     assert!(
         inline != features_only,
         "the depth and plane terms changed no pose"
