@@ -39,6 +39,7 @@ pub mod descriptor;
 pub mod fields;
 pub mod ids;
 mod image;
+pub mod le_bytes;
 pub mod rng;
 pub mod scene;
 pub mod se3;

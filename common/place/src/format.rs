@@ -18,6 +18,7 @@
 use crate::error::{VocabularyFileError, VocabularyFormatError};
 use crate::vocabulary::Vocabulary;
 use gfs_core::descriptor::Descriptor;
+use gfs_core::le_bytes::LeReader;
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"GFSVOCAB";
@@ -33,25 +34,6 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
         (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
     })
-}
-
-/// Reads little-endian values from a byte slice whose length was checked.
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
-}
-
-impl Reader<'_> {
-    fn take<const N: usize>(&mut self) -> [u8; N] {
-        let mut out = [0; N];
-        out.copy_from_slice(&self.bytes[self.at..self.at + N]);
-        self.at += N;
-        out
-    }
-
-    fn u32(&mut self) -> u32 {
-        u32::from_le_bytes(self.take())
-    }
 }
 
 impl Vocabulary {
@@ -103,7 +85,7 @@ impl Vocabulary {
         if &bytes[..8] != MAGIC {
             return Err(VocabularyFormatError::BadMagic);
         }
-        let mut r = Reader { bytes, at: 8 };
+        let mut r = LeReader::new(bytes, 8);
         let version = r.u32();
         if version != FORMAT_VERSION {
             return Err(VocabularyFormatError::Version(version));
@@ -135,11 +117,9 @@ impl Vocabulary {
         if stored != computed {
             return Err(VocabularyFormatError::Checksum { stored, computed });
         }
-        let description = String::from_utf8(bytes[r.at..r.at + text_len].to_vec())
+        let description = String::from_utf8(r.slice(text_len).to_vec())
             .map_err(|_| inconsistent("description is not UTF-8".into()))?;
-        r.at += text_len;
-        let child_count = bytes[r.at..r.at + nodes].to_vec();
-        r.at += nodes;
+        let child_count = r.slice(nodes).to_vec();
         let mut centres: Vec<Descriptor> = Vec::with_capacity(nodes);
         centres.push([0; 4]);
         for _ in 1..nodes {

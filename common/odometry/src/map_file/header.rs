@@ -18,6 +18,7 @@
 
 use super::{MapCamera, MapFileProblem};
 use gfs_core::camera::PinholeCamera;
+use gfs_core::le_bytes::LeReader;
 
 const MAGIC: &[u8; 8] = b"GFSVOMAP";
 /// The layout [`super::save_map`] writes and [`super::load_map`] reads.
@@ -72,7 +73,7 @@ impl Header {
                 MapFileProblem::NotAMap
             });
         }
-        let mut reader = Reader { bytes, at: 0 };
+        let mut reader = LeReader::new(bytes, 0);
         if &reader.take::<8>() != MAGIC {
             return Err(MapFileProblem::NotAMap);
         }
@@ -85,7 +86,7 @@ impl Header {
         let levels = reader.u32();
         let payload_len = reader.u64();
         let payload_crc = reader.u32();
-        let computed = crc32fast::hash(&bytes[..reader.at]);
+        let computed = crc32fast::hash(&bytes[..reader.position()]);
         let stored = reader.u32();
         if stored != computed {
             return Err(MapFileProblem::HeaderChecksum { stored, computed });
@@ -102,32 +103,5 @@ impl Header {
             payload_len,
             payload_crc,
         })
-    }
-}
-
-/// Reads little-endian values from bytes whose length was checked.
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
-}
-
-impl Reader<'_> {
-    fn take<const N: usize>(&mut self) -> [u8; N] {
-        let mut out = [0; N];
-        out.copy_from_slice(&self.bytes[self.at..self.at + N]);
-        self.at += N;
-        out
-    }
-
-    fn u32(&mut self) -> u32 {
-        u32::from_le_bytes(self.take())
-    }
-
-    fn u64(&mut self) -> u64 {
-        u64::from_le_bytes(self.take())
-    }
-
-    fn f64(&mut self) -> f64 {
-        f64::from_le_bytes(self.take())
     }
 }
