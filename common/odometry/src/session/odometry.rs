@@ -150,6 +150,11 @@ impl Odometry {
         self.tracking.skip(id, timestamp)
     }
 
+    /// Adds an IMU sample for the frames after it (see [`TrackingSession::push_imu`]).
+    pub fn push_imu(&mut self, sample: gfs_inertial::ImuSample) -> gfs_inertial::Pushed {
+        self.tracking.push_imu(sample)
+    }
+
     /// Processes the next frame and returns its pose. Always produces a pose: an
     /// untracked frame gets the motion-model prediction, flagged.
     ///

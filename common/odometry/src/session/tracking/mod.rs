@@ -26,6 +26,7 @@ use crate::tracking::tracker::{TrackedFrame, Tracker};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{FrameId, KeyFrameId};
 use gfs_core::stamp::Stamp;
+use gfs_inertial::{ImuSample, ImuStream, Pushed};
 use gfs_lines::grid::GridConfig;
 use nalgebra::{Isometry3, Rotation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
@@ -104,6 +105,8 @@ pub struct TrackingSession {
     relocalised: Option<FramePose>,
     /// How a session started on a saved map stands in it.
     saved: saved_map::OnSavedMap,
+    /// The IMU samples not yet consumed by a frame, on the camera's clock.
+    imu: ImuStream,
 }
 
 impl TrackingSession {
@@ -130,8 +133,22 @@ impl TrackingSession {
             relocalising: None,
             relocalised: None,
             saved: saved_map::OnSavedMap::default(),
+            imu: ImuStream::new(
+                gfs_inertial::ImuConfig::default().max_gap_s,
+                Self::IMU_CAPACITY,
+            ),
             config,
         }
+    }
+
+    /// The most IMU samples kept waiting for frames (5 s at 400 Hz).
+    const IMU_CAPACITY: usize = 2000;
+
+    /// Adds an IMU sample, stamped on the camera's clock, for the frames after it: the
+    /// samples up to (and the first one past) a frame's stamp are pushed before the
+    /// frame is processed. Says what it did, so the caller can warn naming its source.
+    pub fn push_imu(&mut self, sample: ImuSample) -> Pushed {
+        self.imu.push(sample)
     }
 
     /// The loop corrections taken in so far (REP 105 `map -> odom`): the map pose of a
