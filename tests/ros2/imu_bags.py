@@ -72,8 +72,9 @@ def spanned(stamps, frames):
     return last - first + 1
 
 
-def imu_samples(bag, out):
-    line = sh(GFSVO, "--log", "warn", "run", bag, "--out", out, "--json").strip().splitlines()[-1]
+def imu_samples(bag, config, out):
+    line = sh(GFSVO, "--log", "warn", "run", bag, "--config", config, "--out", out,
+              "--json").strip().splitlines()[-1]
     return json.loads(line)["imu_samples"]
 
 
@@ -140,7 +141,7 @@ def main():
 
     stamps = [ns for ns, _ in rows]
     expected = spanned(stamps, frames)
-    taken = imu_samples(bag, WORK / "run_unified")
+    taken = imu_samples(bag, folder / "synthetic.toml", WORK / "run_unified")
     print(f"/camera/imu bag: the tracker took in {taken} samples, {expected} expected", flush=True)
     assert taken == expected
 
@@ -149,7 +150,7 @@ def main():
     accel = stamps[::4]
     united = [s for s in stamps if accel[0] <= s <= accel[-1]]
     expected = spanned(united, frames)
-    taken = imu_samples(split_bag, WORK / "run_split")
+    taken = imu_samples(split_bag, folder / "synthetic.toml", WORK / "run_split")
     print(f"gyro 400 Hz + accel 100 Hz bag: the tracker took in {taken} united samples, "
           f"{expected} expected", flush=True)
     assert taken == expected
