@@ -413,7 +413,9 @@ mod tests {
         assert_eq!(WirePose::new(&pose, None, false).predicted_rotation(), None);
         assert_eq!(w.covariance(), None);
         // deploy/iceoryx2.toml documents the layout for other languages.
-        assert_eq!(std::mem::size_of::<WirePose>(), 400);
+        assert_eq!(std::mem::size_of::<WirePose>(), 408);
+        assert_eq!(std::mem::size_of::<WireImuSample>(), 56);
+        assert_eq!(w.with_imu_samples(9).imu_samples, 9);
         assert_eq!(w.map_from_odom(), Isometry3::identity());
         let m = Isometry3::new(
             nalgebra::Vector3::new(0.02, 0.0, -0.01),

@@ -38,3 +38,18 @@ impl WireImuSample {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_sample_crosses_the_wire_bit_for_bit() {
+        let sample = ImuSample {
+            stamp: Stamp::from_nanos(1_305_031_102_175_304_001),
+            gyro: Vector3::new(0.1, -0.25, 3.0e-7),
+            accel: Vector3::new(-0.003, 9.80665, 0.125),
+        };
+        assert_eq!(WireImuSample::from(&sample).sample(), sample);
+    }
+}
