@@ -99,12 +99,13 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             imu.prepare(index as u64, timestamp);
         }
         let publish = || -> Result<(), StageError> {
-            if let Some(imu) = &imu {
-                imu.publish()?;
-            }
             let mut header = MsgHeader::new(FrameId(index as u64), timestamp);
             header.mark_received(Stage::Source);
             header.mark_started(Stage::Source);
+            // Inside the source's stamps (its cost is the stage's), before the frame.
+            if let Some(imu) = &imu {
+                imu.publish()?;
+            }
             let mut sample = publisher.loan_frame(&header, &layout)?;
             gfs_ipc::frame_view_mut(&mut sample, &layout)
                 .and_then(|mut planes| planes.copy_from(&images))
