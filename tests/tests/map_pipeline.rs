@@ -51,8 +51,16 @@ fn text(path: &Path) -> String {
 fn the_pipeline_saves_and_starts_from_a_map_as_inline_does() {
     std::fs::create_dir_all(out_dir("map_files")).unwrap();
     let (inline_map, lockstep_map) = (map_path("inline.gfsmap"), map_path("lockstep.gfsmap"));
-    let (mapped, _) = run("mi", "inline", &["--save-map", inline_map.to_str().unwrap()]);
-    run("ml", "lockstep", &["--save-map", lockstep_map.to_str().unwrap()]);
+    let (mapped, _) = run(
+        "mi",
+        "inline",
+        &["--save-map", inline_map.to_str().unwrap()],
+    );
+    run(
+        "ml",
+        "lockstep",
+        &["--save-map", lockstep_map.to_str().unwrap()],
+    );
     // The mapper stage writes the map the inline odometry writes, byte for byte.
     assert_eq!(
         std::fs::read(&inline_map).unwrap(),
@@ -62,7 +70,10 @@ fn the_pipeline_saves_and_starts_from_a_map_as_inline_does() {
     let hint = "0.01,0,0,0,0,0,1";
     let cases: [(&str, Vec<&str>); 3] = [
         ("l", vec!["--load-map", map, "--localize"]),
-        ("h", vec!["--load-map", map, "--localize", "--initial-pose", hint]),
+        (
+            "h",
+            vec!["--load-map", map, "--localize", "--initial-pose", hint],
+        ),
         ("e", vec!["--load-map", map]),
     ];
     for (tag, extra) in cases {
@@ -157,7 +168,9 @@ fn request_save(id: &str, path: &Path) -> SaveMapReply {
         if sent.is_none_or(|t| t.elapsed() > Duration::from_secs(2)) {
             requests.update_connections().unwrap();
             if requests.subscriber_count() > 0 {
-                requests.publish_slice(&MsgHeader::default(), &bytes).unwrap();
+                requests
+                    .publish_slice(&MsgHeader::default(), &bytes)
+                    .unwrap();
                 sent = Some(Instant::now());
             }
         }
@@ -182,7 +195,12 @@ fn a_save_request_and_sigint_write_the_pipeline_map() {
         binaries(),
         &id,
         &out,
-        &["--mode", "lockstep", "--save-map", at_stop.to_str().unwrap()],
+        &[
+            "--mode",
+            "lockstep",
+            "--save-map",
+            at_stop.to_str().unwrap(),
+        ],
     );
     let mut watch = common::PoseWatch::new(&id);
     assert!(watch.reach(40, &mut child), "the run reaches frame 40");
@@ -224,7 +242,13 @@ fn tum_fr1_localised_in_the_pipeline_map() {
     let path = map_path("tum.gfsmap");
     let go = |tag: &str, extra: &[&str]| {
         let (id, out) = (run_id(tag), out_dir(&format!("map_{tag}")));
-        let child = start_on(binaries(), &data, &id, &out, &[&["--mode", "lockstep"], extra].concat());
+        let child = start_on(
+            binaries(),
+            &data,
+            &id,
+            &out,
+            &[&["--mode", "lockstep"], extra].concat(),
+        );
         let o = finish(child, &out, &id);
         assert!(o.success, "{tag}: {}", o.stderr);
         o
@@ -254,7 +278,10 @@ fn rms_difference(a: &str, b: &str) -> f64 {
         t.lines()
             .filter(|l| !l.starts_with('#'))
             .map(|l| {
-                let v: Vec<f64> = l.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+                let v: Vec<f64> = l
+                    .split_whitespace()
+                    .filter_map(|x| x.parse().ok())
+                    .collect();
                 [v[1], v[2], v[3]]
             })
             .collect()

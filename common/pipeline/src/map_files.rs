@@ -5,8 +5,8 @@
 //! [`gfs_ipc::topics::SAVE_MAP`] topic ([`SaveMapRequest`]); the tracker starts on the
 //! loaded map's neighbourhood as the inline odometry does.
 
-use gfs_odometry::map::Map;
 use gfs_odometry::WorldManhattan;
+use gfs_odometry::map::Map;
 use gfs_odometry::map_file::{MapCamera, MapFileError, SavedMap, load_map, save_map};
 use gfs_odometry::session::LoadedMapUse;
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
@@ -169,7 +169,9 @@ pub fn parse_pose(text: &str) -> Result<Isometry3<f64>, String> {
 fn format_pose(pose: &Isometry3<f64>) -> String {
     let t = pose.translation.vector;
     let q = pose.rotation.coords;
-    [t.x, t.y, t.z, q.x, q.y, q.z, q.w].map(|v| v.to_string()).join(",")
+    [t.x, t.y, t.z, q.x, q.y, q.z, q.w]
+        .map(|v| v.to_string())
+        .join(",")
 }
 
 #[cfg(test)]
