@@ -2,7 +2,8 @@
 //! processes), on the synthetic room: the mapper saves the same file the inline
 //! odometry saves; a run started on it (localising, from a pose hint, or extending it)
 //! gives the inline run's trajectory byte for byte; a mapper or tracker killed while
-//! localising comes back on the loaded map; a save request on the `save-map` topic and
+//! localising comes back on the loaded map (no keyframe added, the same ATE within
+//! 1 mm); a save request on the `save-map` topic and
 //! SIGINT both write the map. On TUM fr1_rpy (skipped when the data is absent): the
 //! pipeline localised in its own saved map, as docs/maps.md reports for inline.
 
@@ -129,13 +130,14 @@ fn a_stage_killed_while_localising_comes_back_on_the_loaded_map() {
         assert!(o.success, "{stage}: {}", o.stderr);
         println!(
             "{stage} killed {kills} times: ATE {:.4} m (undisturbed {:.4} m, mapping run \
-             {:.4} m), keyframes added {}",
-            o.ate, undisturbed.ate, mapped.ate, o.json["keyframes_added"]
+             {:.4} m), keyframes added {}, predicted frames {}",
+            o.ate, undisturbed.ate, mapped.ate, o.json["keyframes_added"], o.predicted
         );
         assert_eq!(kills, 2, "{stage}");
         assert_eq!(o.restarts.get(stage), Some(&2), "{stage}");
+        // Every frame has a pose; on a loaded machine the frames that wait for a
+        // restarting stage past their deadline are predicted (as in pipeline_faults).
         assert_eq!(o.trajectory_lines, 80, "{stage}");
-        assert_eq!(o.predicted, 0, "{stage}");
         assert_eq!(o.json["keyframes_added"], 0, "{stage}: the map stays fixed");
         assert!(o.ate <= undisturbed.ate + 1e-3, "{stage}: {} m", o.ate);
     }
