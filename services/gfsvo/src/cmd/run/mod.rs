@@ -265,6 +265,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         map_counts = Some(serde_json::json!({
             "loops_closed": loops_closed,
             "keyframes_added": keyframes_added,
+            "imu_samples": outcome.imu_samples,
         }));
         // trajectory.txt: each frame with the loop corrections its keyframe received
         // later (the mapper's last saved map); odometry.txt: the poses as published.
