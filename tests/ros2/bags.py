@@ -9,13 +9,19 @@ implementations not of this project and played with `gfsvo run BAG --mcap`:
    compressedDepth carries millimetres); jpeg colour (quality 95): ATE within 25 % of it
    (one run's ATE varies chaotically with JPEG's small changes; see below).
 3. Every `--mcap` recording (zstd chunks, the default) read back by PyPI
-   mcap-ros2-support: one /odom per pose, equal to odometry.txt.
+   mcap-ros2-support: one /odom per pose, equal to odometry.txt and carrying its frame's
+   stamp exactly (integer sec, nanosec).
+4. Stamps with nine non-zero nanosecond digits (tum.nine_digit_stamp, zstd chunks): every
+   frame posed, odometry.txt and each /odom stamped with its colour image's stamp bit
+   for bit.
 """
 import json
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+import tum
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent.parent
@@ -61,13 +67,20 @@ def main():
     t0 = time.time()
     folder = WORK / "folder"
     sh(GFSVO, "--log", "warn", "run", DATA, "--frames", FRAMES, "--out", folder)
-    runs = {kind: play(kind) for kind in ["zstd", "lz4", "mm", "png", "jpeg"]}
+    runs = {kind: play(kind) for kind in ["zstd", "lz4", "nine", "mm", "png", "jpeg"]}
     lines = (folder / "trajectory.txt").read_text().count("\n")
     for kind in ["zstd", "lz4"]:
         identical = same(folder, runs[kind])
         print(f"bag with {kind} chunks: trajectory ({lines} lines) byte-identical to the folder's: "
               f"{identical}", flush=True)
         assert identical, f"the {kind} bag plays to the folder's trajectory"
+    written = [tum.nine_digit_stamp(i) for i in range(FRAMES)]
+    posed = [tum.stamp(l.split()[0]) for l in
+             (runs["nine"] / "odometry.txt").read_text().splitlines() if l and l[0] != "#"]
+    print(f"nine-digit stamps: {len(posed)} poses for {FRAMES} frames, "
+          f"{sum(a == b for a, b in zip(posed, written))} stamped exactly as their colour image "
+          f"(first {posed[0][0]}.{posed[0][1]:09d})", flush=True)
+    assert posed == written, "every frame posed, each with its colour image's stamp exactly"
     identical = same(runs["mm"], runs["png"])
     print(f"compressed png + compressedDepth png: byte-identical to raw rgb8 + 16UC1: {identical}")
     assert identical, "lossless compressed images play to the raw images' trajectory"

@@ -340,10 +340,12 @@ def main():
                           0, 0, RegionOfInterest(0, 0, 0, 0, False))
 
     # A driver publishes its CameraInfo from the start (gfsvo ros2 reads the camera
-    # from it before it starts the pipeline).
+    # from it before it starts the pipeline). /odom is volatile: a pose published before
+    # its writer matched this reader never comes, so wait for that match too.
     deadline = time.time() + args.wait_match
     while time.time() < deadline:
-        if colour_w.get_matched_subscriptions() and depth_w.get_matched_subscriptions():
+        if (colour_w.get_matched_subscriptions() and depth_w.get_matched_subscriptions()
+                and odom_r.get_matched_publications()):
             break
         info_w.write(camera_info(frames[0][1], frames[0][2]))
         time.sleep(0.1)
