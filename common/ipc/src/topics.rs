@@ -80,9 +80,15 @@ pub const LOOP_VERDICT: TopicSpec = TopicSpec {
     name: "loop-verdict",
     kind: TopicKind::Variable,
 };
+/// `gfsvo-ros2` -> `tracker` (and any stage a request is for): requests from outside
+/// the run, such as a reset (bincode `gfs_pipeline::control::ControlMessage`).
+pub const CONTROL: TopicSpec = TopicSpec {
+    name: "control",
+    kind: TopicKind::Variable,
+};
 
 /// Every topic of the pipeline.
-pub const ALL: [TopicSpec; 11] = [
+pub const ALL: [TopicSpec; 12] = [
     FRAME,
     POINTS,
     LINES,
@@ -94,6 +100,7 @@ pub const ALL: [TopicSpec; 11] = [
     LOCAL_MAP,
     KEYFRAME_MAP,
     LOOP_VERDICT,
+    CONTROL,
 ];
 
 #[cfg(test)]

@@ -134,7 +134,7 @@ impl<S: Service> Recorder<S> {
                 if let Some(anchor) = wire.anchor(in_map) {
                     self.anchors.insert(pose.id.0, anchor);
                 }
-                self.keyframes += wire.keyframe as usize;
+                self.keyframes += usize::from(wire.is_keyframe());
                 self.profile.record(&header, pose.status.as_str());
                 new += 1;
             }
