@@ -65,3 +65,40 @@ impl ControlLedger {
         state.write(self.file, &self.last, scratch)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_request_is_applied_once_also_by_a_restarted_stage() {
+        let dir = std::env::temp_dir().join(format!("gfs-control-{}", std::process::id()));
+        let state = StateDir::new(Some(dir.clone()));
+        let mut scratch = Vec::new();
+        let message = |seq| ControlMessage {
+            seq,
+            control: Control::Reset,
+        };
+        let mut ledger = ControlLedger::open(&state, "control.bin").unwrap();
+        assert!(ledger.is_new(&message(10)));
+        ledger.applied(&state, &message(10), &mut scratch).unwrap();
+        assert!(!ledger.is_new(&message(10)), "applied already");
+        // A restarted stage gets the topic's history again: only the newer one is new.
+        let reopened = ControlLedger::open(&state, "control.bin").unwrap();
+        assert!(!reopened.is_new(&message(10)) && reopened.is_new(&message(11)));
+        let pose = Control::ResetToPose(Isometry3::translation(1.0, 2.0, 3.0));
+        let mut bytes = Vec::new();
+        gfs_ipc::encode_message(
+            &ControlMessage {
+                seq: 12,
+                control: pose,
+            },
+            &mut bytes,
+        )
+        .unwrap();
+        let decoded: ControlMessage =
+            gfs_ipc::decode_message(&bytes, gfs_ipc::MAX_VARIABLE_MESSAGE_BYTES).unwrap();
+        assert_eq!(decoded.control, pose);
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+}
