@@ -83,6 +83,8 @@ pub struct DiagnosticsWindow {
     maps_started: u32,
     /// Keyframes of the map being built.
     keyframes_in_map: u32,
+    /// The IMU samples the tracker took in over the run.
+    imu_samples: u64,
 }
 
 impl DiagnosticsWindow {
@@ -117,6 +119,11 @@ impl DiagnosticsWindow {
             self.keyframes_in_map = 0;
         }
         self.keyframes_in_map += 1;
+    }
+
+    /// The tracker took in `samples` more IMU samples (reported once there are some).
+    pub fn imu_taken(&mut self, samples: u64) {
+        self.imu_samples += samples;
     }
 
     fn forget_before(&mut self, now_ns: i64) {
@@ -193,6 +200,12 @@ impl DiagnosticsWindow {
             value,
         })
         .collect::<Vec<_>>();
+        if self.imu_samples > 0 {
+            values.push(KeyValue {
+                key: "imu samples tracked".to_owned(),
+                value: self.imu_samples.to_string(),
+            });
+        }
         values.extend(restarts.iter().map(|(stage, n)| KeyValue {
             key: format!("restarts {stage}"),
             value: n.to_string(),

@@ -39,6 +39,7 @@ pub mod config;
 pub mod control;
 pub mod diagnostics;
 pub mod image;
+pub mod imu;
 pub mod msg;
 pub mod odom;
 pub mod pairing;
