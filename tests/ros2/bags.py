@@ -6,16 +6,22 @@ implementations not of this project and played with `gfsvo run BAG --mcap`:
    byte-identical to the folder's.
 2. image_transport's compressed colour (png) and compressedDepth (png, 16UC1):
    byte-identical to the same frames as raw rgb8 + 16UC1 (PNG is lossless; 16UC1 because
-   compressedDepth carries millimetres); jpeg colour (quality 95): ATE within 25 % of it
-   (one run's ATE varies chaotically with JPEG's small changes; see below).
+   compressedDepth carries millimetres); jpeg colour (quality 95, 4:2:0): ATE within 25 %
+   of it, the spread one run's ATE shows under changes below one grey level (see below).
 3. Every `--mcap` recording (zstd chunks, the default) read back by PyPI
-   mcap-ros2-support: one /odom per pose, equal to odometry.txt.
+   mcap-ros2-support: one /odom per pose, equal to odometry.txt and carrying its frame's
+   stamp exactly (integer sec, nanosec).
+4. Stamps with nine non-zero nanosecond digits (tum.nine_digit_stamp, zstd chunks): every
+   frame posed, odometry.txt and each /odom stamped with its colour image's stamp bit
+   for bit.
 """
 import json
 import subprocess
 import sys
 import time
 from pathlib import Path
+
+import tum
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent.parent
@@ -61,13 +67,20 @@ def main():
     t0 = time.time()
     folder = WORK / "folder"
     sh(GFSVO, "--log", "warn", "run", DATA, "--frames", FRAMES, "--out", folder)
-    runs = {kind: play(kind) for kind in ["zstd", "lz4", "mm", "png", "jpeg"]}
+    runs = {kind: play(kind) for kind in ["zstd", "lz4", "nine", "mm", "png", "jpeg"]}
     lines = (folder / "trajectory.txt").read_text().count("\n")
     for kind in ["zstd", "lz4"]:
         identical = same(folder, runs[kind])
         print(f"bag with {kind} chunks: trajectory ({lines} lines) byte-identical to the folder's: "
               f"{identical}", flush=True)
         assert identical, f"the {kind} bag plays to the folder's trajectory"
+    written = [tum.nine_digit_stamp(i) for i in range(FRAMES)]
+    posed = [tum.stamp(l.split()[0]) for l in
+             (runs["nine"] / "odometry.txt").read_text().splitlines() if l and l[0] != "#"]
+    print(f"nine-digit stamps: {len(posed)} poses for {FRAMES} frames, "
+          f"{sum(a == b for a, b in zip(posed, written))} stamped exactly as their colour image "
+          f"(first {posed[0][0]}.{posed[0][1]:09d})", flush=True)
+    assert posed == written, "every frame posed, each with its colour image's stamp exactly"
     identical = same(runs["mm"], runs["png"])
     print(f"compressed png + compressedDepth png: byte-identical to raw rgb8 + 16UC1: {identical}")
     assert identical, "lossless compressed images play to the raw images' trajectory"
@@ -76,10 +89,16 @@ def main():
     print("ATE RMSE over", FRAMES, "frames:", ", ".join(f"{k} {v:.4f} m" for k, v in ates.items()))
     print(f"jpeg / raw 16UC1: {ates['jpeg'] / ates['mm']:.3f}, jpeg / folder: "
           f"{ates['jpeg'] / ates['folder']:.3f}")
-    # JPEG's loss moves every corner a little, and one run's ATE follows such changes
-    # chaotically: on all 300 frames, jpeg / raw 16UC1 was 1.02, 1.15, 1.07 at quality
-    # 90, 95, 98 (not monotonic). A transport fault (channels swapped, colour and depth of
-    # different frames, a wrong scale) costs far more than the bound.
+    # One run's ATE follows changes below one grey level chaotically (keyframe choices,
+    # RANSAC draws), and JPEG's loss is such a change: over these 80 frames, relative to
+    # the raw bag, rgb8 with +-1 grey-level noise gave 0.92, 0.95, 1.03 and 1.11 (four
+    # seeds); this jpeg decoded by libjpeg-turbo (PIL) instead of ours and played raw
+    # gave 1.19; jpeg through our decoder 1.075 at quality 95 and 0.98 at 80 (4:2:0, as
+    # image_transport's OpenCV encodes), 1.19 at 95 with 4:4:4 chroma (more fidelity,
+    # worse: not a systematic loss). On all 300 frames: noise 0.91, 1.01, 1.08; jpeg 95
+    # 1.01, 80 0.96, 4:4:4 1.14; libjpeg-turbo's decoding 1.16. A 10 % bound on one run is
+    # inside that spread; 25 % is above it. A transport fault (channels swapped, colour
+    # and depth of different frames, a wrong scale) costs far more.
     assert ates["jpeg"] <= 1.25 * ates["mm"], "jpeg colour within 25 % of the raw images' ATE"
     print(f"ros2 bags: all checks passed in {time.time() - t0:.0f} s")
 

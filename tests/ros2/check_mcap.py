@@ -1,6 +1,7 @@
 """Reads a `gfsvo run --mcap` recording with PyPI mcap-ros2-support and checks every
 /odom against odometry.txt (the poses as published; trajectory.txt, the map poses,
-differs once a loop correction or a relocalisation went into map -> odom): the base
+differs once a loop correction or a relocalisation went into map -> odom), matched by
+the integer stamp (sec, nanosec) exactly: the base
 pose in odom turned back into the camera pose with the default camera-in-base
 extrinsic (REP 103 optical frame); and /diagnostics once a second of the camera's clock,
 whatever the playback speed."""
@@ -8,6 +9,8 @@ import sys
 
 import numpy as np
 from mcap_ros2.reader import read_ros2_messages
+
+import tum
 
 
 def rot(q):
@@ -27,8 +30,10 @@ def matrix(t, q):
 
 
 mcap_path, trajectory = sys.argv[1], sys.argv[2]
-rows = [list(map(float, l.split())) for l in open(trajectory) if l.strip() and not l.startswith("#")]
-by_stamp = {round(r[0], 6): r for r in rows}
+lines = [l.split() for l in open(trajectory) if l.strip() and not l.startswith("#")]
+rows = [list(map(float, l)) for l in lines]
+# Keyed by the integer stamp: each /odom must carry its frame's stamp bit for bit.
+by_stamp = {tum.stamp(l[0]): r for l, r in zip(lines, rows)}
 base = matrix([0, 0, 0], [-0.5, 0.5, -0.5, 0.5])
 odoms, statuses, worst = 0, 0, 0.0
 diagnostics = []
@@ -42,8 +47,9 @@ for m in read_ros2_messages(mcap_path):
         continue
     o = m.ros_msg
     p, q = o.pose.pose.position, o.pose.pose.orientation
-    stamp = o.header.stamp.sec + o.header.stamp.nanosec * 1e-9
-    row = by_stamp[round(stamp, 6)]
+    key = (o.header.stamp.sec, o.header.stamp.nanosec)
+    assert key in by_stamp, f"/odom stamped {key[0]}.{key[1]:09d}: no such frame in {trajectory}"
+    row = by_stamp[key]
     camera = np.linalg.inv(base) @ matrix([p.x, p.y, p.z], [q.x, q.y, q.z, q.w]) @ base
     want = matrix(row[1:4], row[4:8])
     worst = max(worst, float(np.abs(camera - want).max()))

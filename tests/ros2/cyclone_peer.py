@@ -7,6 +7,7 @@ writes the /odom poses as JSON lines.
 Usage: cyclone_peer.py FOLDER OUT.jsonl [--rate 30] [--wait-match 60] [--frames N]
        [--stamps tum|nine] [--diagnostics DIAG.jsonl] [--distortion-model NAME]
        [--compressed] [--imu]
+       [--control FRAME:reset | FRAME:pose:x,y,z,qx,qy,qz,qw ...]
 
 The CameraInfo is the folder's camera: its synthetic.toml `[camera]` (any lens model)
 when it has one, else TUM freiburg1's. `--stamps nine` stamps the frames on a clock
@@ -20,6 +21,12 @@ header first).
 --imu publishes the folder's imu.txt on /camera/imu (sensor_msgs/Imu, RealSense's
 unified topic), before each frame the samples up to its stamp and the first past it
 (as a driver's IMU arrives ahead of the images); the count goes into the summary.
+
+--control calls the reset service /gfsvo/reset (std_srvs/srv/Empty, as rmw_cyclonedds
+maps a service onto DDS: rq/gfsvo/resetRequest and rr/gfsvo/resetReply, the client's id
+and the call's number before the request) or publishes a base pose in odom on
+/gfsvo/reset_to_pose (geometry_msgs/PoseWithCovarianceStamped) when frame FRAME is
+published; the summary lists each call and whether its reply came.
 
 Cyclone's Python writer must use XCDR1 to be read by RustDDS. Images are serialised by
 hand (numpy bytes after the CDR header fields), once, before publishing starts: the IDL
@@ -39,7 +46,7 @@ import numpy as np
 from PIL import Image as PilImage
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
+from cyclonedds.idl.types import array, float64, int32, int64, sequence, uint8, uint32, uint64
 from pathlib import Path
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Policy, Qos
@@ -209,6 +216,29 @@ class PoseWithCovariance(IdlStruct, typename="geometry_msgs::msg::dds_::PoseWith
 
 
 @dataclass
+class PoseWithCovarianceStamped(IdlStruct,
+                                typename="geometry_msgs::msg::dds_::PoseWithCovarianceStamped_"):
+    header: Header
+    pose: PoseWithCovariance
+
+
+@dataclass
+class EmptyRequest(IdlStruct, typename="std_srvs::srv::dds_::Empty_Request_"):
+    """rmw_cyclonedds's request: the client's id and the call's number, then the request
+    (std_srvs/Empty: IDL's one byte of an empty structure)."""
+    client: uint64
+    seq: int64
+    structure_needs_at_least_one_member: uint8
+
+
+@dataclass
+class EmptyReply(IdlStruct, typename="std_srvs::srv::dds_::Empty_Response_"):
+    client: uint64
+    seq: int64
+    structure_needs_at_least_one_member: uint8
+
+
+@dataclass
 class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
     x: float64
     y: float64
@@ -312,7 +342,13 @@ def main():
     ap.add_argument("--distortion-model", help="publish this model name in the CameraInfo")
     ap.add_argument("--compressed", action="store_true")
     ap.add_argument("--imu", action="store_true", help="publish imu.txt on /camera/imu")
+    ap.add_argument("--control", action="append", default=[],
+                    help="FRAME:reset or FRAME:pose:x,y,z,qx,qy,qz,qw (base in odom)")
     args = ap.parse_args()
+    controls = {}
+    for spec in args.control:
+        frame_text, kind, *rest = spec.split(":")
+        controls[int(frame_text)] = (kind, [float(v) for v in rest[0].split(",")] if rest else None)
 
     frame = "camera_color_optical_frame"
     frames = []
@@ -362,6 +398,15 @@ def main():
     imu_sent = 0
     odom_r = DataReader(dp, Topic(dp, "rt/odom", Odometry), qos=reliable)
     diag_r = DataReader(dp, Topic(dp, "rt/diagnostics", DiagnosticArray), qos=reliable)
+    control_endpoints = []
+    if controls:
+        reset_w = DataWriter(dp, Topic(dp, "rq/gfsvo/resetRequest", EmptyRequest), qos=reliable)
+        reply_r = DataReader(dp, Topic(dp, "rr/gfsvo/resetReply", EmptyReply), qos=reliable)
+        pose_w = DataWriter(dp, Topic(dp, "rt/gfsvo/reset_to_pose", PoseWithCovarianceStamped),
+                            qos=reliable)
+        control_endpoints = [reset_w.get_matched_subscriptions, reply_r.get_matched_publications,
+                             pose_w.get_matched_subscriptions]
+        client_id = 0x5EED0000 + os.getpid()
 
     w, h, model, d, fx, fy, cx, cy = folder_camera(args.folder, args.distortion_model)
 
@@ -373,10 +418,12 @@ def main():
                           0, 0, RegionOfInterest(0, 0, 0, 0, False))
 
     # A driver publishes its CameraInfo from the start (gfsvo ros2 reads the camera
-    # from it before it starts the pipeline).
+    # from it before it starts the pipeline). /odom is volatile: a pose published before
+    # its writer matched this reader never comes, so wait for that match too.
     deadline = time.time() + args.wait_match
     while time.time() < deadline:
-        if colour_w.get_matched_subscriptions() and depth_w.get_matched_subscriptions():
+        if (colour_w.get_matched_subscriptions() and depth_w.get_matched_subscriptions()
+                and odom_r.get_matched_publications() and all(m() for m in control_endpoints)):
             break
         info_w.write(camera_info(frames[0][1], frames[0][2]))
         time.sleep(0.1)
@@ -386,11 +433,18 @@ def main():
 
     published = {}
     received = {}
+    order = []
     diagnostics = []
+    calls = []
     stop = threading.Event()
 
     def read_odom():
         while not stop.is_set():
+            if controls:
+                for r in reply_r.take(N=10):
+                    for call in calls:
+                        if (r.client, r.seq) == (client_id, call["seq"]):
+                            call["replied_s"] = time.time() - call["sent"]
             for a in diag_r.take(N=10):
                 for st in a.status:
                     diagnostics.append({"received": time.time(), "level": st.level,
@@ -399,6 +453,7 @@ def main():
             for o in odom_r.take(N=100):
                 now = time.time()
                 key = (o.header.stamp.sec, o.header.stamp.nanosec)
+                order.append(key)
                 p, q = o.pose.pose.position, o.pose.pose.orientation
                 received.setdefault(key, (now, [p.x, p.y, p.z, q.x, q.y, q.z, q.w],
                                           o.header.frame_id, o.child_frame_id,
@@ -426,6 +481,18 @@ def main():
             info_w.write(info)
         if i == args.on_frame and args.command:
             subprocess.Popen(args.command, shell=True)
+        if i in controls:
+            kind, values = controls[i]
+            call = {"frame": i, "kind": kind, "values": values, "sent": time.time(),
+                    "seq": len(calls) + 1}
+            if kind == "reset":
+                reset_w.write(EmptyRequest(client_id, call["seq"], 0))
+            else:
+                x, y, z, qx, qy, qz, qw = values
+                pose_w.write(PoseWithCovarianceStamped(
+                    Header(Time(sec, ns), "odom"),
+                    PoseWithCovariance(Pose(Point(x, y, z), Quaternion(qx, qy, qz, qw)), [0.0] * 36)))
+            calls.append(call)
     print(f"cyclone: published {len(frames)} frames in {time.time() - start:.1f} s", flush=True)
     time.sleep(args.linger)
     stop.set()
@@ -444,7 +511,8 @@ def main():
     with open(args.out + ".summary.json", "w") as f:
         json.dump({"frames": len(frames), "received": len(latencies), "imu_sent": imu_sent,
                    "latency_ms": latencies, "published": sorted(published),
-                   "unmatched": sorted(k for k in received if k not in published)}, f)
+                   "unmatched": sorted(k for k in received if k not in published),
+                   "received_order": order, "controls": calls}, f)
     p = lambda q: latencies[min(len(latencies) - 1, int(q * len(latencies)))] if latencies else float("nan")
     print(f"cyclone: /odom received for {len(latencies)} of {len(frames)} frames ({100 * share:.1f} %); "
           f"latency colour published -> /odom received p50 {p(0.5):.1f} ms, p99 {p(0.99):.1f} ms",

@@ -3,7 +3,8 @@ interop.sh in its venv, after interop.py), on ../shared/data/tum_fr1_rpy_head300
 sequences rendered by `gfsvo synth`:
 
 1. Stamps: every /odom stamp equals its colour image's stamp exactly (integer sec and
-   nanosec), for TUM stamps and for stamps with nine non-zero nanosecond digits.
+   nanosec), for TUM stamps and for stamps with nine non-zero nanosecond digits; and
+   every frame the tracker posed (status.txt, read as integers) got its /odom.
 2. /diagnostics (diagnostic_msgs/DiagnosticArray) received at about 1 Hz with the
    tracking state, rates, latency, share tracked and restarts; while tracking, level OK
    or WARN, and WARN whenever a pose was late (> 100 ms).
@@ -24,6 +25,8 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+import tum
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent.parent
@@ -70,14 +73,23 @@ def live(name, folder, config, peer_args=(), gfsvo_args=()):
     return summary, out, odom, text
 
 
-def check_exact_stamps(name, summary, odom):
+def check_exact_stamps(name, summary, odom, out):
     published = {tuple(k) for k in summary["published"]}
+    received = {(o["sec"], o["nanosec"]) for o in odom}
     exact = sum((o["sec"], o["nanosec"]) in published for o in odom)
+    # status.txt: `id stamp status` per frame received; `predicted` is a frame the tracker
+    # did not pose (or one filled in for a frame without a pose).
+    rows = [line.split() for line in (out / "status.txt").read_text().splitlines()
+            if line and not line.startswith("#")]
+    posed = [tum.stamp(t) for _, t, status in rows if status != "predicted"]
+    missing = [s for s in posed if s not in received]
     nine = sum(all(c != "0" for c in f"{o['nanosec']:09d}") for o in odom)
     print(f"{name}: {len(odom)} /odom for {len(published)} frames; {exact} stamped exactly as "
           f"a colour image, {len(summary['unmatched'])} not; {nine} with nine non-zero "
-          f"nanosecond digits", flush=True)
+          f"nanosecond digits; {len(posed)} frames posed by the tracker, {len(missing)} of "
+          f"them without /odom {missing[:3]}", flush=True)
     assert odom and exact == len(odom), "every /odom carries its colour image's stamp"
+    assert posed and not missing, "an /odom for every frame the tracker posed"
     # The share of frames with a pose is interop.py's check (98 %); here, enough to see.
     assert len(odom) >= 0.5 * len(published), "/odom for the frames"
     return nine
@@ -92,9 +104,9 @@ def main():
     tum1 = REPO / "configs" / "tum1.toml"
 
     diag_file = WORK / "diagnostics.jsonl"
-    summary, _, odom, _ = live("stamps_tum", DATA, tum1,
-                               ["--frames", "150", "--diagnostics", diag_file])
-    check_exact_stamps("TUM stamps", summary, odom)
+    summary, out, odom, _ = live("stamps_tum", DATA, tum1,
+                                 ["--frames", "150", "--diagnostics", diag_file])
+    check_exact_stamps("TUM stamps", summary, odom, out)
     reports = [json.loads(line) for line in diag_file.read_text().splitlines()]
     span = reports[-1]["received"] - reports[0]["received"] if len(reports) > 1 else 0.0
     rate = (len(reports) - 1) / span if span > 0 else 0.0
@@ -111,8 +123,8 @@ def main():
         late = float(r["values"]["latency max (ms)"]) > 100.0
         assert r["level"] in ((1,) if late else (0, 1)), "WARN when late, never ERROR tracking"
 
-    summary, _, odom, _ = live("stamps_nine", DATA, tum1, ["--frames", "150", "--stamps", "nine"])
-    nine = check_exact_stamps("nine-digit stamps", summary, odom)
+    summary, out, odom, _ = live("stamps_nine", DATA, tum1, ["--frames", "150", "--stamps", "nine"])
+    nine = check_exact_stamps("nine-digit stamps", summary, odom, out)
     assert nine == len(odom), "the stamps had nine non-zero nanosecond digits"
 
     ates = {}

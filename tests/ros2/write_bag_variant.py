@@ -5,6 +5,8 @@ them, with implementations not of this project:
   `ros2 bag record -s mcap` writes by default); rgb8 + 32FC1 metres.
 - lz4: the PyPI mcap writer (rosbags writes no lz4 chunks), lz4 chunks; the payloads
   serialised by rosbags; a bare .mcap file; rgb8 + 32FC1 metres.
+- nine: as zstd, on a clock whose every stamp has nine non-zero nanosecond digits
+  (tum.nine_digit_stamp; each depth stamp as far from its colour stamp as in the folder).
 - mm: rosbags, uncompressed; rgb8 + 16UC1 millimetres (the reference of the next two).
 - png / jpeg: rosbags, zstd chunks; colour as image_transport's `compressed` plugin
   sends it on <colour>/compressed (PNG, or JPEG quality 95, its default; format
@@ -45,12 +47,18 @@ def encoded(array, fmt, **options):
 
 def messages():
     """(topic, type name, log time ns, message) of each frame, colour stamp first."""
-    for t_rgb, t_depth, rgb_path, depth_path in islice(tum.frames(folder), count):
+    for i, (t_rgb, t_depth, rgb_path, depth_path) in enumerate(islice(tum.frames(folder), count)):
         rgb = tum.rgb8(rgb_path)
         raw = tum.depth_raw(depth_path).astype(np.float64)
         h, w = rgb.shape[:2]
-        hc = T["Header"](stamp=T["Time"](*tum.stamp(t_rgb)), frame_id="camera_color_optical_frame")
-        hd = T["Header"](stamp=T["Time"](*tum.stamp(t_depth)), frame_id="camera_color_optical_frame")
+        (sec_c, nsec_c), (sec_d, nsec_d) = tum.stamp(t_rgb), tum.stamp(t_depth)
+        ns_c, ns_d = sec_c * 1_000_000_000 + nsec_c, sec_d * 1_000_000_000 + nsec_d
+        if kind == "nine":
+            sec_c, nsec_c = tum.nine_digit_stamp(i)
+            ns_c, ns_d = sec_c * 1_000_000_000 + nsec_c, sec_c * 1_000_000_000 + nsec_c + ns_d - ns_c
+            sec_d, nsec_d = divmod(ns_d, 1_000_000_000)
+        hc = T["Header"](stamp=T["Time"](sec_c, nsec_c), frame_id="camera_color_optical_frame")
+        hd = T["Header"](stamp=T["Time"](sec_d, nsec_d), frame_id="camera_color_optical_frame")
         k = np.array([c["fx"], 0, c["cx"], 0, c["fy"], c["cy"], 0, 0, 1], dtype=np.float64)
         p = np.array([c["fx"], 0, c["cx"], 0, 0, c["fy"], c["cy"], 0, 0, 0, 1, 0], dtype=np.float64)
         info = T["CameraInfo"](header=hc, height=h, width=w, distortion_model="plumb_bob",
@@ -58,8 +66,6 @@ def messages():
                                binning_x=0, binning_y=0,
                                roi=T["RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0,
                                                          do_rectify=False))
-        (sec_c, nsec_c), (sec_d, nsec_d) = tum.stamp(t_rgb), tum.stamp(t_depth)
-        ns_c, ns_d = sec_c * 1_000_000_000 + nsec_c, sec_d * 1_000_000_000 + nsec_d
         yield INFO, "CameraInfo", ns_c, info
         mm = np.round(raw / tum.TUM_DEPTH_SCALE * 1000.0).astype("<u2")
         if kind in ("png", "jpeg"):
@@ -117,7 +123,7 @@ def write_mcap_lz4():
 
 if kind == "lz4":
     write_mcap_lz4()
-elif kind in ("zstd", "mm", "png", "jpeg"):
+elif kind in ("zstd", "nine", "mm", "png", "jpeg"):
     write_rosbags()
 else:
     raise SystemExit(f"unknown kind {kind}")

@@ -86,6 +86,12 @@ pub const LOOP_VERDICT: TopicSpec = TopicSpec {
     name: "loop-verdict",
     kind: TopicKind::Variable,
 };
+/// `gfsvo-ros2` -> `tracker` (and any stage a request is for): requests from outside
+/// the run, such as a reset (bincode `gfs_pipeline::control::ControlMessage`).
+pub const CONTROL: TopicSpec = TopicSpec {
+    name: "control",
+    kind: TopicKind::Variable,
+};
 
 /// anyone (`gfsvo ros2`'s `/gfsvo/save_map`) -> `mapper`: write the global map to a file
 /// now (bincode `gfs_pipeline::map_files::SaveMapRequest`).
@@ -101,7 +107,7 @@ pub const MAP_SAVED: TopicSpec = TopicSpec {
 };
 
 /// Every topic of the pipeline.
-pub const ALL: [TopicSpec; 14] = [
+pub const ALL: [TopicSpec; 15] = [
     FRAME,
     IMU,
     POINTS,
@@ -116,6 +122,7 @@ pub const ALL: [TopicSpec; 14] = [
     LOOP_VERDICT,
     SAVE_MAP,
     MAP_SAVED,
+    CONTROL,
 ];
 
 #[cfg(test)]

@@ -188,7 +188,8 @@ pub struct WirePose {
     pub predicted_rotation: [f64; 4],
     /// 0 tracked, 1 degraded, 2 predicted, 3 relocalised.
     pub status: u32,
-    /// 1 when the frame became a keyframe.
+    /// 1 when the frame became a keyframe; 2 when it became the first keyframe of a
+    /// new map in place of the one before (a reset, or a long outage).
     pub keyframe: u32,
     /// Upper triangle (row by row) of the pose's 6x6 covariance from its optimisation
     /// (camera-frame translation then rotation); all zero when unknown (predicted).
@@ -233,6 +234,23 @@ impl WirePose {
             anchor_correction: [0.0; 7],
             imu_samples: 0,
         }
+    }
+
+    /// The same pose, marked as the first keyframe of a new map in place of the one
+    /// before.
+    pub fn starting_new_map(mut self) -> Self {
+        self.keyframe = 2;
+        self
+    }
+
+    /// True when the frame became a keyframe.
+    pub fn is_keyframe(&self) -> bool {
+        self.keyframe != 0
+    }
+
+    /// True when the frame started a new map in place of the one before.
+    pub fn starts_new_map(&self) -> bool {
+        self.keyframe == 2
     }
 
     /// The same pose with the number of IMU samples taken in before it.

@@ -57,6 +57,12 @@ pub struct Ros2Config {
     pub status_topic: String,
     /// `diagnostic_msgs/DiagnosticArray` output, once a second.
     pub diagnostics_topic: String,
+    /// `std_srvs/srv/Empty` service: start a new map, the odometry going on from the
+    /// last pose.
+    pub reset_service: String,
+    /// `geometry_msgs/PoseWithCovarianceStamped` input (as rtabmap's `initialpose`):
+    /// start a new map with the base at that pose in `odom_frame`.
+    pub reset_to_pose_topic: String,
     /// `header.frame_id` of the odometry (REP 105 `odom`).
     pub odom_frame: String,
     /// Parent frame of the loop correction `map -> odom` on `/tf` (REP 105 `map`),
@@ -97,6 +103,8 @@ impl Default for Ros2Config {
             tf_topic: "/tf".to_owned(),
             status_topic: "/gfsvo/status".to_owned(),
             diagnostics_topic: "/diagnostics".to_owned(),
+            reset_service: "/gfsvo/reset".to_owned(),
+            reset_to_pose_topic: "/gfsvo/reset_to_pose".to_owned(),
             odom_frame: "odom".to_owned(),
             map_frame: "map".to_owned(),
             base_frame: "base_link".to_owned(),
@@ -148,6 +156,8 @@ impl Ros2Config {
             ("tf_topic", &self.tf_topic),
             ("status_topic", &self.status_topic),
             ("diagnostics_topic", &self.diagnostics_topic),
+            ("reset_service", &self.reset_service),
+            ("reset_to_pose_topic", &self.reset_to_pose_topic),
         ] {
             if !topic.starts_with('/') || topic.len() < 2 || topic.contains(char::is_whitespace) {
                 return Err(format!(

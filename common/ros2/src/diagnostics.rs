@@ -79,6 +79,10 @@ pub struct DiagnosticsWindow {
     received: VecDeque<i64>,
     published: VecDeque<Published>,
     last_status: Option<&'static str>,
+    /// Maps started over the run: the first, then one per reset (or long outage).
+    maps_started: u32,
+    /// Keyframes of the map being built.
+    keyframes_in_map: u32,
     /// The IMU samples the tracker took in over the run.
     imu_samples: u64,
 }
@@ -105,6 +109,16 @@ impl DiagnosticsWindow {
         });
         self.last_status = Some(status);
         self.forget_before(now_ns);
+    }
+
+    /// A pose that made its frame a keyframe went out; `new_map`: the first of a map
+    /// in place of the one before.
+    pub fn keyframe(&mut self, new_map: bool) {
+        if new_map || self.maps_started == 0 {
+            self.maps_started += 1;
+            self.keyframes_in_map = 0;
+        }
+        self.keyframes_in_map += 1;
     }
 
     /// The tracker took in `samples` more IMU samples (reported once there are some).
@@ -177,6 +191,8 @@ impl DiagnosticsWindow {
                 "frames tracked (%)",
                 tracked_share.map_or("n/a".to_owned(), |s| format!("{:.1}", 100.0 * s)),
             ),
+            ("maps started", self.maps_started.to_string()),
+            ("keyframes in map", self.keyframes_in_map.to_string()),
         ]
         .into_iter()
         .map(|(key, value)| KeyValue {
@@ -262,5 +278,22 @@ mod tests {
         let report = idle.report(4000 * MS, Header::default(), "/rgb", &[]);
         assert_eq!(report.status[0].level, Level::Warn as u8);
         assert_eq!(value(&report, "input rate (Hz)"), "0.0");
+    }
+
+    #[test]
+    fn keyframes_are_counted_per_map_and_a_new_map_restarts_them() {
+        let mut w = DiagnosticsWindow::new();
+        let report = |w: &mut DiagnosticsWindow| {
+            let r = w.report(0, Header::default(), "/rgb", &[]);
+            [value(&r, "maps started"), value(&r, "keyframes in map")].map(str::to_owned)
+        };
+        assert_eq!(report(&mut w), ["0", "0"]);
+        for _ in 0..5 {
+            w.keyframe(false);
+        }
+        assert_eq!(report(&mut w), ["1", "5"]);
+        w.keyframe(true);
+        w.keyframe(false);
+        assert_eq!(report(&mut w), ["2", "2"]);
     }
 }

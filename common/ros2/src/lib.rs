@@ -23,6 +23,7 @@
 //!   png, compressedDepth png), decoded in the source stage.
 //! - [`bag`] (feature `bag`): ROS 2 bags in MCAP (zstd / lz4 chunks), read as frames
 //!   with every length checked, and written under a temporary name.
+//! - [`control`]: a reset to a pose received on ROS 2, checked.
 //! - [`config::Ros2Config`]: the `[ros2]` table of a config.
 #![warn(missing_docs)]
 
@@ -35,6 +36,7 @@ mod bag_writer;
 pub mod camera_info;
 pub mod cdr;
 pub mod config;
+pub mod control;
 pub mod diagnostics;
 pub mod image;
 pub mod imu;

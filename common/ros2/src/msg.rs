@@ -183,6 +183,16 @@ pub struct PoseWithCovariance {
     pub covariance: [f64; 36],
 }
 
+/// `geometry_msgs/PoseWithCovarianceStamped` (RViz's "2D Pose Estimate", rtabmap's
+/// `initialpose`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PoseWithCovarianceStamped {
+    /// Stamp and the frame the pose is in.
+    pub header: Header,
+    /// The pose.
+    pub pose: PoseWithCovariance,
+}
+
 /// `geometry_msgs/Twist`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Twist {

@@ -71,6 +71,17 @@ impl OdometryPublisherState {
         self.camera_in_base * world_from_camera * self.camera_in_base.inverse()
     }
 
+    /// The camera pose in the pipeline's world for a base pose in `odom` (the inverse
+    /// of [`Self::base_in_odom`]).
+    pub fn camera_in_odom(&self, base_in_odom: &Isometry3<f64>) -> Isometry3<f64> {
+        self.camera_in_base.inverse() * base_in_odom * self.camera_in_base
+    }
+
+    /// The odometry and map frame names.
+    pub fn frames(&self) -> (&str, &str) {
+        (&self.config.odom_frame, &self.config.map_frame)
+    }
+
     /// The covariance of the base pose (base-frame axes) for a camera-frame covariance.
     pub fn base_covariance(&self, camera: &Matrix6<f64>) -> Matrix6<f64> {
         let ad = gfs_core::se3::adjoint(&self.camera_in_base);

@@ -2,18 +2,23 @@
 //! (`ROS_DOMAIN_ID`; `ROS_LOCALHOST_ONLY=1` or `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`
 //! keep discovery and data on 127.0.0.1), the camera subscriptions with sensor-data QoS
 //! (best effort, so reliable and best-effort publishers both match) of either image
-//! transport, and the output publishers (reliable).
+//! transport, the output publishers (reliable), and the reset service and topic.
 
 use gfs_ros2::diagnostics::DiagnosticArray;
 use gfs_ros2::imu::ImuTopic;
-use gfs_ros2::msg::{CameraInfo, CompressedImage, Image, Imu, Odometry, StringMsg, TfMessage};
+use gfs_ros2::msg::{
+    CameraInfo, CompressedImage, Image, Imu, Odometry, PoseWithCovarianceStamped, StringMsg,
+    TfMessage,
+};
 use gfs_ros2::transport::TransportImage;
 use gfs_ros2::{Ros2Config, Transport};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::qos::{History, QosProfile};
 use ros2_client::{
-    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, Subscription,
+    Context, Message, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, Server,
+    ServiceMapping, ServiceTypeName, Subscription,
 };
+use serde::{Deserialize, Serialize};
 use std::net::Ipv4Addr;
 
 /// What can go wrong setting up DDS.
@@ -64,6 +69,20 @@ impl ImageSubscription {
     }
 }
 
+/// `std_srvs/srv/Empty` request (IDL gives an empty structure one byte).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct EmptyRequest {
+    structure_needs_at_least_one_member: u8,
+}
+impl Message for EmptyRequest {}
+
+/// `std_srvs/srv/Empty` response.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct EmptyResponse {
+    structure_needs_at_least_one_member: u8,
+}
+impl Message for EmptyResponse {}
+
 /// The node's subscriptions and publishers.
 pub struct Endpoints {
     /// Colour images.
@@ -82,6 +101,10 @@ pub struct Endpoints {
     pub status: Publisher<StringMsg>,
     /// `/diagnostics`.
     pub diagnostics: Publisher<DiagnosticArray>,
+    /// The reset service (`std_srvs/srv/Empty`).
+    pub reset: Server<EmptyRequest, EmptyResponse>,
+    /// Resets to a pose.
+    pub reset_to_pose: Subscription<PoseWithCovarianceStamped>,
     _node: Node,
 }
 
@@ -228,7 +251,25 @@ pub fn endpoints(config: &Ros2Config) -> Result<Endpoints, DdsError> {
         "DiagnosticArray",
         &output,
     )?;
+    let reset_to_pose_topic = topic(
+        &mut node,
+        &config.reset_to_pose_topic,
+        "geometry_msgs",
+        "PoseWithCovarianceStamped",
+        &output,
+    )?;
+    // Services as rmw_cyclonedds maps them onto DDS (`rq/<name>Request`,
+    // `rr/<name>Reply`, the request id in a header of the payload), reliable.
+    let reset = node.create_server(
+        ServiceMapping::Cyclone,
+        &Name::parse(&config.reset_service)?,
+        &ServiceTypeName::new("std_srvs", "Empty"),
+        output.clone(),
+        output.clone(),
+    )?;
     Ok(Endpoints {
+        reset,
+        reset_to_pose: node.create_subscription(&reset_to_pose_topic, Some(output.clone()))?,
         colour,
         depth,
         camera_info: node.create_subscription(&info_topic, Some(sensor))?,

@@ -21,4 +21,6 @@ pub use messages::{
     Relocalised, TrackedAgainst,
 };
 pub use state::{MapReceipt, RequestLedger, TrackingState};
-pub use tracking::{FramePose, LoadedMapUse, TrackOutput, TrackingCheckpoint, TrackingSession};
+pub use tracking::{
+    FramePose, LoadedMapUse, ResetError, TrackOutput, TrackingCheckpoint, TrackingSession,
+};

@@ -6,12 +6,14 @@
 //! odometry does, so both give the same trajectory; in realtime a relocalisation's
 //! answer comes frames later and tracking goes on from the frame it found. On a loaded
 //! map (`--load-map`) it starts on the map's neighbourhood as the inline odometry does,
-//! unless its checkpoint says where it was.
+//! unless its checkpoint says where it was. A reset on the `control` topic starts a new
+//! map at the next frame that can be.
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
 use super::imu::ImuInbox;
 use super::join::{FrameJoin, Joined, Part};
 use super::mapper::saved_maps;
+use crate::control::{Control, ControlLedger, ControlMessage};
 use crate::state::StateDir;
 use crate::wire::{
     WireImuSample, WireKeyPoint, WireLine, WireManhattan, WirePose, WireTrackedFeature,
@@ -20,12 +22,16 @@ use gfs_ipc::{
     MAX_VARIABLE_MESSAGE_BYTES, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
     decode_message, encode_message, topics,
 };
-use gfs_odometry::session::{MapRequest, MapUpdate, TrackingCheckpoint, TrackingSession};
+use gfs_odometry::session::{
+    MapRequest, MapUpdate, ResetError, TrackingCheckpoint, TrackingSession,
+};
 use gfs_odometry::{FrameSurfaces, TrackingStatus};
 use std::time::Instant;
 
 /// The checkpoint: motion model, reference keyframe, counters ([`TrackingCheckpoint`]).
 const CHECKPOINT: &str = "tracker.bin";
+/// The last control request applied ([`ControlLedger`]).
+const CONTROL_LEDGER: &str = "tracker-control.bin";
 
 /// The tracker's ports.
 struct Ports<S: Service> {
@@ -41,6 +47,7 @@ struct Ports<S: Service> {
     /// The frame's matches for viewers, sent only while one subscribes.
     tracked: TopicPublisher<S, WireTrackedFeature>,
     keyframes: TopicPublisher<S, u8>,
+    control: TopicSubscriber<S, u8>,
 }
 
 /// The map answering a keyframe request: the mapper's header (its stamps).
@@ -85,7 +92,10 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         poses: ctx.publish(topics::POSE, 1)?,
         tracked: ctx.publish(topics::TRACKED, 2048)?,
         keyframes: ctx.publish(topics::KEYFRAME, 1 << 20)?,
+        control: ctx.subscribe(topics::CONTROL)?,
     };
+    let mut ledger = ControlLedger::open(&state, CONTROL_LEDGER)?;
+    let mut reset: Option<ControlMessage> = None;
     let mut join = FrameJoin::new(surfaces_expected);
     let mut imu = ImuInbox::default();
     let mut outstanding: Option<Outstanding> = None;
@@ -124,6 +134,13 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             };
             continue;
         };
+        take_controls(&ports.control, &ledger, &mut reset)?;
+        if let Some(message) = reset
+            && apply_reset(&mut session, &message, header.frame_id)
+        {
+            ledger.applied(&state, &message, &mut scratch)?;
+            reset = None;
+        }
         mark_ready(&mut header, Stage::Tracker, 0);
         header.mark_started(Stage::Tracker);
         let (id, timestamp) = (features.id, features.timestamp);
@@ -150,6 +167,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             pose.status = TrackingStatus::Degraded;
         }
         let keyframe = matches!(request, Some(MapRequest::KeyFrame(_)));
+        let new_map = matches!(&request, Some(MapRequest::KeyFrame(k)) if k.reset);
         if let Some(request) = request {
             let mut bytes = Vec::new();
             if let Err(e) = encode_message(&request, &mut bytes) {
@@ -177,11 +195,14 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
         header.mark_finished(Stage::Tracker);
         let predicted = session.predicted_quaternion();
-        let wire = WirePose::new(&pose, predicted.as_ref(), keyframe)
+        let mut wire = WirePose::new(&pose, predicted.as_ref(), keyframe)
             .with_covariance(covariance.as_ref())
             .with_map_from_odom(session.map_from_odom())
             .with_anchor(session.anchor(&pose).as_ref())
             .with_imu_samples(imu_samples);
+        if new_map {
+            wire = wire.starting_new_map();
+        }
         ports.poses.publish_slice(&header, &[wire])?;
         if ports.tracked.subscriber_count() > 0
             && let Some(matches) = session.last_matches()
@@ -195,6 +216,42 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         join.drop_before(next_frame);
     }
     Ok(())
+}
+
+/// Keeps the newest control request not applied yet in `reset`.
+fn take_controls<S: Service>(
+    control: &TopicSubscriber<S, u8>,
+    ledger: &ControlLedger,
+    reset: &mut Option<ControlMessage>,
+) -> Result<(), StageError> {
+    while let Some((_, message)) =
+        control.receive_decoded::<ControlMessage>(MAX_VARIABLE_MESSAGE_BYTES)?
+    {
+        if ledger.is_new(&message) && reset.is_none_or(|r| r.seq < message.seq) {
+            *reset = Some(message);
+        }
+    }
+    Ok(())
+}
+
+/// Starts a new map as `message` asks, before frame `frame`; false when it must wait
+/// for the answer to a map request.
+fn apply_reset(session: &mut TrackingSession, message: &ControlMessage, frame: u64) -> bool {
+    let pose = match message.control {
+        Control::Reset => None,
+        Control::ResetToPose(pose) => Some(pose),
+    };
+    match session.start_new_map(pose) {
+        Ok(()) => {
+            tracing::info!(frame, ?message.control, "tracker: reset: a new map starts");
+            true
+        }
+        Err(ResetError::RequestPending) => false,
+        Err(e) => {
+            tracing::warn!(frame, "tracker: reset refused: {e}");
+            true
+        }
+    }
 }
 
 /// Restores a killed tracker's state; returns the next frame to track.

@@ -137,7 +137,7 @@ impl<S: Service> Recorder<S> {
                 if let Some(anchor) = wire.anchor(in_map) {
                     self.anchors.insert(pose.id.0, anchor);
                 }
-                self.keyframes += wire.keyframe as usize;
+                self.keyframes += usize::from(wire.is_keyframe());
                 self.imu_samples += u64::from(wire.imu_samples);
                 self.profile.record(&header, pose.status.as_str());
                 new += 1;

@@ -4,9 +4,11 @@
 //! the maps the mapping half sends back.
 
 mod checkpoint;
+mod reset;
 mod saved_map;
 
 pub use checkpoint::TrackingCheckpoint;
+pub use reset::ResetError;
 pub use saved_map::LoadedMapUse;
 
 use super::messages::{
@@ -107,6 +109,8 @@ pub struct TrackingSession {
     saved: saved_map::OnSavedMap,
     /// The IMU samples not yet consumed by a frame, on the camera's clock.
     imu: ImuStream,
+    /// The map a reset dropped, until the next frame was tracked against it.
+    dropped: Option<Map>,
 }
 
 impl TrackingSession {
@@ -138,6 +142,7 @@ impl TrackingSession {
                 Self::IMU_CAPACITY,
             ),
             config,
+            dropped: None,
         }
     }
 
@@ -534,10 +539,14 @@ impl TrackingSession {
     }
 
     /// Starts a map on the first frame with enough keypoints with depth; the world frame
-    /// is that camera's (or, after a reset, the predicted pose).
+    /// is that camera's (or, after a reset, its pose tracked on the dropped map or
+    /// predicted).
     fn try_initialise(&mut self, features: FrameFeatures) -> TrackedFrame {
         let with_depth = features.keypoints.iter().filter(|k| k.depth > 0.0).count();
-        let predicted = self.tracker.predict().unwrap_or_else(Isometry3::identity);
+        let predicted = match self.pose_on_dropped_map(&features) {
+            Some(pose) => pose,
+            None => self.tracker.predict().unwrap_or_else(Isometry3::identity),
+        };
         let mut frame = TrackedFrame::untracked(features, predicted);
         if with_depth >= self.config.tracking.min_initial_points || self.depth_determines(&frame) {
             frame.status = TrackingStatus::Tracked;
