@@ -57,7 +57,7 @@ fn a_bare_wall_keeps_the_prediction_and_publishes_no_covariance() {
             &mut Sightings::default(),
         );
         assert_eq!(frame.status, TrackingStatus::Predicted, "frame {k}");
-        assert_eq!(tracker.pose_covariance(&frame), None, "frame {k}");
+        assert_eq!(tracker.pose_covariance(&frame, None), None, "frame {k}");
         tracker.finish_frame(frame);
     }
 }
@@ -79,7 +79,7 @@ fn a_textured_frame_is_tracked_with_a_millimetre_sigma() {
     let truth = pose(0.001, 0.0);
     let frame = tracker.track(&map, scene.features(1, &truth), &mut Sightings::default());
     assert_eq!(frame.status, TrackingStatus::Tracked);
-    let covariance = tracker.pose_covariance(&frame).expect("a covariance");
+    let covariance = tracker.pose_covariance(&frame, None).expect("a covariance");
     let (sigma, _) = largest_translation_sigma(&covariance);
     assert!(sigma < 0.003, "{sigma} m");
 }
@@ -104,7 +104,7 @@ fn a_distant_facade_is_degraded_with_a_sigma_above_the_bound() {
     tracker.finish_frame(relinked(map.keyframe(kf).expect("kf")));
     let truth = pose(0.001, 0.0);
     let frame = tracker.track(&map, scene.features(1, &truth), &mut Sightings::default());
-    let covariance = tracker.pose_covariance(&frame).expect("a covariance");
+    let covariance = tracker.pose_covariance(&frame, None).expect("a covariance");
     let (sigma, direction) = largest_translation_sigma(&covariance);
     assert_eq!(
         frame.status,
