@@ -6,7 +6,7 @@ writes the /odom poses as JSON lines.
 
 Usage: cyclone_peer.py FOLDER OUT.jsonl [--rate 30] [--wait-match 60] [--frames N]
        [--stamps tum|nine] [--diagnostics DIAG.jsonl] [--distortion-model NAME]
-       [--compressed]
+       [--compressed] [--imu]
 
 The CameraInfo is the folder's camera: its synthetic.toml `[camera]` (any lens model)
 when it has one, else TUM freiburg1's. `--stamps nine` stamps the frames on a clock
@@ -16,6 +16,10 @@ whose nanoseconds have nine non-zero digits (tum.nine_digit_stamp).
 png colour on <colour>/compressed (`rgb8; png compressed bgr8`), compressedDepth png of
 the millimetres on <depth>/compressedDepth (`16UC1; compressedDepth png`, its 12-byte
 header first).
+
+--imu publishes the folder's imu.txt on /camera/imu (sensor_msgs/Imu, RealSense's
+unified topic), before each frame the samples up to its stamp and the first past it
+(as a driver's IMU arrives ahead of the images); the count goes into the summary.
 
 Cyclone's Python writer must use XCDR1 to be read by RustDDS. Images are serialised by
 hand (numpy bytes after the CDR header fields), once, before publishing starts: the IDL
@@ -252,6 +256,29 @@ class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::Diagnosti
     status: sequence[DiagnosticStatus]
 
 
+@dataclass
+class Imu(IdlStruct, typename="sensor_msgs::msg::dds_::Imu_"):
+    header: Header
+    orientation: Quaternion
+    orientation_covariance: array[float64, 9]
+    angular_velocity: Vector3
+    angular_velocity_covariance: array[float64, 9]
+    linear_acceleration: Vector3
+    linear_acceleration_covariance: array[float64, 9]
+
+
+def imu_samples(folder):
+    """((sec, nanosec), gyro, accel) of each line of the folder's imu.txt."""
+    out = []
+    for line in (Path(folder) / "imu.txt").read_text().splitlines():
+        if line.strip() and not line.startswith("#"):
+            f = line.split()
+            sec, _, frac = f[0].partition(".")
+            v = [float(x) for x in f[1:]]
+            out.append(((int(sec), int((frac + "000000000")[:9])), v[:3], v[3:]))
+    return out
+
+
 def folder_camera(folder, model_override):
     """(width, height, model, D, fx, fy, cx, cy) of the folder's camera."""
     config = Path(folder) / "synthetic.toml"
@@ -284,6 +311,7 @@ def main():
     ap.add_argument("--diagnostics", help="write the /diagnostics received here (JSON lines)")
     ap.add_argument("--distortion-model", help="publish this model name in the CameraInfo")
     ap.add_argument("--compressed", action="store_true")
+    ap.add_argument("--imu", action="store_true", help="publish imu.txt on /camera/imu")
     args = ap.parse_args()
 
     frame = "camera_color_optical_frame"
@@ -327,6 +355,11 @@ def main():
         colour_w = DataWriter(dp, Topic(dp, "rt/camera/color/image_raw", Image), qos=sensor)
         depth_w = DataWriter(dp, Topic(dp, "rt/camera/aligned_depth_to_color/image_raw", Image), qos=sensor)
     info_w = DataWriter(dp, Topic(dp, "rt/camera/color/camera_info", CameraInfo), qos=sensor)
+    imu = imu_samples(args.folder) if args.imu else []
+    imu_w = DataWriter(dp, Topic(dp, "rt/camera/imu", Imu),
+                       qos=Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(100), xcdr1))
+    no_orientation = [-1.0] + [0.0] * 8
+    imu_sent = 0
     odom_r = DataReader(dp, Topic(dp, "rt/odom", Odometry), qos=reliable)
     diag_r = DataReader(dp, Topic(dp, "rt/diagnostics", DiagnosticArray), qos=reliable)
 
@@ -380,6 +413,12 @@ def main():
         while (now := time.time()) < due:
             time.sleep(min(0.002, due - now))
         info = camera_info(sec, ns)
+        while imu_sent < len(imu) and (imu_sent == 0 or imu[imu_sent - 1][0] <= (sec, ns)):
+            (isec, ins), g, a = imu[imu_sent]
+            imu_w.write(Imu(Header(Time(isec, ins), "camera_imu_optical_frame"),
+                            Quaternion(0.0, 0.0, 0.0, 1.0), no_orientation, Vector3(*g),
+                            [0.0] * 9, Vector3(*a), [0.0] * 9))
+            imu_sent += 1
         published[(sec, ns)] = time.time()
         colour_w.write(message(colour))
         depth_w.write(message(depth))
@@ -403,7 +442,7 @@ def main():
             f.writelines(json.dumps(d) + "\n" for d in diagnostics)
     share = len(latencies) / len(frames)
     with open(args.out + ".summary.json", "w") as f:
-        json.dump({"frames": len(frames), "received": len(latencies),
+        json.dump({"frames": len(frames), "received": len(latencies), "imu_sent": imu_sent,
                    "latency_ms": latencies, "published": sorted(published),
                    "unmatched": sorted(k for k in received if k not in published)}, f)
     p = lambda q: latencies[min(len(latencies) - 1, int(q * len(latencies)))] if latencies else float("nan")

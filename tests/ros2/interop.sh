@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The ROS 2 interop tests (tests/ros2/bags.py, interop.py, live_checks.py,
+# The ROS 2 interop tests (tests/ros2/bags.py, imu_bags.py, interop.py, live_checks.py,
 # live_compressed.py and live_visualisation.py say what they cover): sets up its own Python venv from PyPI (cached in target/ros2-venv), builds
 # the executables, runs them.
 # Skips with a reason when ../shared/data is absent. Loopback only.
@@ -20,6 +20,7 @@ if [ "$(cat $VENV/pins 2>/dev/null)" != "$PINS" ]; then
 fi
 cargo build --release --workspace --bins --quiet
 "$VENV/bin/python" tests/ros2/bags.py
+"$VENV/bin/python" tests/ros2/imu_bags.py
 "$VENV/bin/python" tests/ros2/interop.py
 "$VENV/bin/python" tests/ros2/live_checks.py
 "$VENV/bin/python" tests/ros2/live_compressed.py

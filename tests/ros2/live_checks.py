@@ -13,6 +13,9 @@ sequences rendered by `gfsvo synth`:
    (realtime runs vary from run to run, see interop.py: the bound here is 25 %; the
    lockstep Rust test tests/tests/lens_models.rs holds the 10 %).
 4. A CameraInfo with an unknown distortion model is refused, naming model and topic.
+5. IMU: a `gfsvo synth --imu` sequence with its imu.txt published on /camera/imu
+   (sensor_msgs/Imu) reaches the tracker: /diagnostics' `imu samples tracked` counts at
+   least 90 % of the samples published (the first frame needs none before it).
 """
 import json
 import os
@@ -127,6 +130,17 @@ def main():
         f"{m} {a:.4f} m ({a / ates['none']:.2f})" for m, a in ates.items()), flush=True)
     for model in ["rational_polynomial", "equidistant"]:
         assert ates[model] <= 1.25 * ates["none"], f"{model} tracked as the ideal pinhole"
+
+    folder = WORK / "synth_imu"
+    sh(GFSVO, "synth", "--frames", "90", "--imu", "200", "--out", folder)
+    diag_file = WORK / "diagnostics_imu.jsonl"
+    summary, _, odom, _ = live("imu", folder, folder / "synthetic.toml",
+                               ["--rate", "10", "--imu", "--diagnostics", diag_file])
+    reports = [json.loads(line) for line in diag_file.read_text().splitlines()]
+    tracked = max(int(r["values"].get("imu samples tracked", 0)) for r in reports)
+    print(f"imu: {summary['imu_sent']} samples published on /camera/imu, {tracked} taken in "
+          f"by the tracker; {len(odom)} /odom for {summary['frames']} frames", flush=True)
+    assert tracked >= 0.9 * summary["imu_sent"], "the IMU samples reach the tracker"
 
     _, _, _, text = live("unknown_model", DATA, tum1,
                          ["--frames", "30", "--distortion-model", "kannala_brandt"],

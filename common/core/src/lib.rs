@@ -44,5 +44,6 @@ pub mod rng;
 pub mod scene;
 pub mod se3;
 pub mod stamp;
+pub mod throttle;
 
 pub use image::{DepthImage, GrayImage, Image, ImageError, ImageView, RgbImage};

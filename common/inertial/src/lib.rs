@@ -8,6 +8,7 @@
 //! - [`config`]: the `[imu]` table: the IMU's mount in the camera, noise, clock;
 //! - [`sample`]: one measurement, and a stream's checks (order, repeats, gaps, NaN) and
 //!   the combination of separate gyroscope and accelerometer topics;
+//! - [`feed`]: an input's samples handed to the tracker a frame at a time;
 //! - [`noise`]: noise densities and bias random walks, with the figures of the parts
 //!   these cameras carry;
 //! - [`preintegration`]: the motion between two frames from the samples between them,
@@ -25,6 +26,7 @@
 //! `R <- R Exp(dphi)`, `p <- p + dp`, `v <- v + dv`, `b <- b + db`.
 
 pub mod config;
+pub mod feed;
 pub mod initialisation;
 pub mod noise;
 pub mod preintegration;
@@ -35,6 +37,7 @@ pub mod simulate;
 pub(crate) mod testing;
 
 pub use config::ImuConfig;
+pub use feed::ImuFeed;
 pub use initialisation::{InertialInit, InitError, initialise};
 pub use noise::ImuNoise;
 pub use preintegration::{Bias, Preintegrated};

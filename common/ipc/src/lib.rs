@@ -55,7 +55,7 @@
 //!   clean up dead nodes by default); its samples then return to the publishers.
 //!
 //! ```
-//! use gfs_core::{ids::FrameId, Image};
+//! use gfs_core::{ids::FrameId, stamp::Stamp, Image};
 //! use gfs_ipc::{frame_view, topics, FrameImages, IpcRun, Mode, MsgHeader, RunId, Stage,
 //!     TopicPublisher, TopicSubscriber};
 //! use gfs_ipc::local;

@@ -46,6 +46,12 @@ pub const SURFACES: TopicSpec = TopicSpec {
     name: "surfaces",
     kind: TopicKind::Features,
 };
+/// `source` -> `tracker`: the IMU samples before frame k (up to its stamp and the first
+/// past it), published just before the frame and only when the input has an IMU.
+pub const IMU: TopicSpec = TopicSpec {
+    name: "imu",
+    kind: TopicKind::Features,
+};
 /// `tracker` -> recorder, `source` (lockstep pacing): the pose and status of frame k.
 pub const POSE: TopicSpec = TopicSpec {
     name: "pose",
@@ -82,8 +88,9 @@ pub const LOOP_VERDICT: TopicSpec = TopicSpec {
 };
 
 /// Every topic of the pipeline.
-pub const ALL: [TopicSpec; 11] = [
+pub const ALL: [TopicSpec; 12] = [
     FRAME,
+    IMU,
     POINTS,
     LINES,
     MANHATTAN,

@@ -11,7 +11,9 @@ use gfs_planes::ManhattanAxes;
 use gfs_points::{Descriptor, KeyPoint};
 use nalgebra::{Isometry3, Matrix3, Matrix6, Quaternion, Rotation3, Translation3, UnitQuaternion};
 
+mod imu;
 mod tracked;
+pub use imu::WireImuSample;
 pub use tracked::WireTrackedFeature;
 
 /// One ORB keypoint with its descriptor (`points` topic).
@@ -202,6 +204,8 @@ pub struct WirePose {
     /// The reference keyframe's loop correction when the frame was tracked, laid out
     /// as `map_from_odom` (all zero for the identity).
     pub anchor_correction: [f64; 7],
+    /// The IMU samples the tracker took in before the frame.
+    pub imu_samples: u32,
 }
 
 impl WirePose {
@@ -227,7 +231,14 @@ impl WirePose {
             map_from_odom: [0.0; 7],
             anchor_keyframe: 0,
             anchor_correction: [0.0; 7],
+            imu_samples: 0,
         }
+    }
+
+    /// The same pose with the number of IMU samples taken in before it.
+    pub fn with_imu_samples(mut self, samples: usize) -> Self {
+        self.imu_samples = u32::try_from(samples).unwrap_or(u32::MAX);
+        self
     }
 
     /// The same pose tied to its reference keyframe.
@@ -402,7 +413,9 @@ mod tests {
         assert_eq!(WirePose::new(&pose, None, false).predicted_rotation(), None);
         assert_eq!(w.covariance(), None);
         // deploy/iceoryx2.toml documents the layout for other languages.
-        assert_eq!(std::mem::size_of::<WirePose>(), 400);
+        assert_eq!(std::mem::size_of::<WirePose>(), 408);
+        assert_eq!(std::mem::size_of::<WireImuSample>(), 56);
+        assert_eq!(w.with_imu_samples(9).imu_samples, 9);
         assert_eq!(w.map_from_odom(), Isometry3::identity());
         let m = Isometry3::new(
             nalgebra::Vector3::new(0.02, 0.0, -0.01),

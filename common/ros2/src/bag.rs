@@ -9,10 +9,12 @@ use crate::bag_records::{ChannelInfo, RecordMessage, Records, summary_channels, 
 pub use crate::bag_writer::{BagWriter, Compression};
 use crate::cdr::{self, CdrError};
 use crate::config::Transport;
-use crate::msg::{CameraInfo, CompressedImage, Image};
+use crate::imu::{ImuInput, ImuTopic, ImuTopics};
+use crate::msg::{CameraInfo, CompressedImage, Image, Imu};
 use crate::pairing::{Paired, Pairer};
 use crate::transport::TransportImage;
 use gfs_core::stamp::Stamp;
+use gfs_inertial::{ImuFeed, ImuSample};
 use std::collections::{BTreeSet, VecDeque};
 use std::path::{Path, PathBuf};
 
@@ -108,6 +110,9 @@ pub struct BagTopics {
     pub camera_info: String,
     /// The transport read when the bag has both.
     pub transport: Transport,
+    /// The IMU topics, when the IMU is read: the unified one if the bag has it, else
+    /// the gyroscope and accelerometer ones if it has both.
+    pub imu: Option<ImuTopics>,
 }
 
 impl BagTopics {
@@ -130,11 +135,29 @@ impl BagTopics {
                 None => candidates[0].clone(),
             }
         };
+        let present = |t: &String| channels.iter().any(|c| &c.topic == t);
+        let imu = self.imu.as_ref().and_then(|imu| {
+            if present(&imu.unified) {
+                Some(ImuTopics {
+                    gyro: String::new(),
+                    accel: String::new(),
+                    ..imu.clone()
+                })
+            } else if present(&imu.gyro) && present(&imu.accel) {
+                Some(ImuTopics {
+                    unified: String::new(),
+                    ..imu.clone()
+                })
+            } else {
+                None
+            }
+        });
         Self {
             colour: pick(self.candidates(&self.colour, "compressed")),
             depth: pick(self.candidates(&self.depth, "compressedDepth")),
             camera_info: self.camera_info.clone(),
             transport: self.transport,
+            imu,
         }
     }
 }
@@ -188,6 +211,7 @@ enum Decoded {
     Colour(TransportImage),
     Depth(TransportImage),
     Info(Box<CameraInfo>),
+    Imu(ImuTopic, Box<Imu>),
     Skipped,
 }
 
@@ -203,7 +227,16 @@ pub struct BagReader {
     seen: BTreeSet<String>,
     counts: [usize; 3],
     ended: bool,
+    /// The IMU topics' checks and union, when the bag has them and they are read.
+    imu: Option<ImuInput>,
+    /// Samples read and not taken yet, and the newest stamp read.
+    imu_samples: Vec<ImuSample>,
+    imu_newest: Option<Stamp>,
 }
+
+/// Messages read ahead at most looking for an IMU sample past a frame (2.5 s of a
+/// 400 Hz IMU): an IMU that stopped does not make the reader hold the rest of the bag.
+const IMU_READ_AHEAD: usize = 1000;
 
 impl BagReader {
     /// Opens the bag at `path`: checks that each file is complete and picks the image
@@ -220,9 +253,13 @@ impl BagReader {
                 channels.extend(summary_channels(file, start)?);
             }
         }
+        let topics = topics.resolve(&channels);
         Ok(Self {
+            imu: topics.imu.clone().map(ImuInput::new),
+            imu_samples: Vec::new(),
+            imu_newest: None,
             path: path.to_path_buf(),
-            topics: topics.resolve(&channels),
+            topics,
             files: files.into(),
             records: None,
             pairer: Pairer::new(slop_s, 64),
@@ -241,6 +278,35 @@ impl BagReader {
     /// The colour and depth topics read (the transport found in the bag).
     pub fn image_topics(&self) -> (&str, &str) {
         (&self.topics.colour, &self.topics.depth)
+    }
+
+    /// The IMU topics read (`None`: the bag has none, or the IMU is not read).
+    pub fn imu_topics(&self) -> Option<&ImuTopics> {
+        self.imu.as_ref().map(ImuInput::topics)
+    }
+
+    /// Reads on until an IMU sample past `stamp` (the IMU's clock) has been read, the bag
+    /// ended, or [`IMU_READ_AHEAD`] messages later; then moves the samples read into
+    /// `feed`.
+    ///
+    /// # Errors
+    /// As [`Self::next_frame`].
+    pub fn imu_past(&mut self, stamp: Stamp, feed: &mut ImuFeed) -> Result<(), BagError> {
+        let mut budget = IMU_READ_AHEAD;
+        while self.imu.is_some()
+            && !self.ended
+            && budget > 0
+            && self.imu_newest.is_none_or(|newest| newest <= stamp)
+        {
+            if !self.read_message()? {
+                self.ended = true;
+            }
+            budget -= 1;
+        }
+        for sample in self.imu_samples.drain(..) {
+            feed.push(sample);
+        }
+        Ok(())
     }
 
     /// The next frame, `Ok(None)` at the end.
@@ -352,6 +418,15 @@ impl BagReader {
                     self.counts[2] += 1;
                     self.camera_info.get_or_insert(*info);
                 }
+                Decoded::Imu(which, message) => {
+                    if let Some(imu) = self.imu.as_mut() {
+                        let before = self.imu_samples.len();
+                        imu.push(which, &message, &mut self.imu_samples);
+                        if self.imu_samples.len() > before {
+                            self.imu_newest = self.imu_samples.last().map(|s| s.stamp);
+                        }
+                    }
+                }
                 Decoded::Skipped => continue,
             }
             return Ok(true);
@@ -389,6 +464,22 @@ fn decode(
         }
         let info = cdr::decode(message.data, "sensor_msgs/CameraInfo").map_err(payload)?;
         return Ok(Decoded::Info(Box::new(info)));
+    }
+    if let Some(which) = topics.imu.as_ref().and_then(|imu| imu.which(topic)) {
+        if !matches!(schema, "" | "sensor_msgs/msg/Imu" | "sensor_msgs/Imu") {
+            return Err(wrong("sensor_msgs/msg/Imu"));
+        }
+        return Ok(match cdr::decode::<Imu>(message.data, "sensor_msgs/Imu") {
+            Ok(imu) => Decoded::Imu(which, Box::new(imu)),
+            Err(e) => {
+                tracing::warn!(
+                    "{}: {topic} logged at {:.9} s: {e}; message skipped",
+                    file.display(),
+                    message.log_time as f64 * 1e-9
+                );
+                Decoded::Skipped
+            }
+        });
     }
     let colour = topic == topics.colour;
     if !colour && topic != topics.depth {

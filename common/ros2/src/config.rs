@@ -38,6 +38,14 @@ pub struct Ros2Config {
     pub depth_topic: String,
     /// `sensor_msgs/CameraInfo` of the colour camera.
     pub camera_info_topic: String,
+    /// `sensor_msgs/Imu` with gyroscope and accelerometer together (RealSense's
+    /// `unite_imu_method`); read when it has messages.
+    pub imu_topic: String,
+    /// `sensor_msgs/Imu` with the gyroscope alone, united with `accel_topic` at the
+    /// gyroscope's stamps when `imu_topic` is silent.
+    pub gyro_topic: String,
+    /// `sensor_msgs/Imu` with the accelerometer alone.
+    pub accel_topic: String,
     /// Raw or compressed images, live; in a bag, the topics of the other transport are
     /// read when the bag has none of this one, and each topic's schema says how.
     pub transport: Transport,
@@ -81,6 +89,9 @@ impl Default for Ros2Config {
             colour_topic: "/camera/color/image_raw".to_owned(),
             depth_topic: "/camera/aligned_depth_to_color/image_raw".to_owned(),
             camera_info_topic: "/camera/color/camera_info".to_owned(),
+            imu_topic: "/camera/imu".to_owned(),
+            gyro_topic: "/camera/gyro/sample".to_owned(),
+            accel_topic: "/camera/accel/sample".to_owned(),
             transport: Transport::Raw,
             odom_topic: "/odom".to_owned(),
             tf_topic: "/tf".to_owned(),
@@ -112,6 +123,15 @@ impl Ros2Config {
         }
     }
 
+    /// The IMU topics read.
+    pub fn imu_topics(&self) -> crate::imu::ImuTopics {
+        crate::imu::ImuTopics {
+            unified: self.imu_topic.clone(),
+            gyro: self.gyro_topic.clone(),
+            accel: self.accel_topic.clone(),
+        }
+    }
+
     /// Checks the values a run cannot work with.
     ///
     /// # Errors
@@ -121,6 +141,9 @@ impl Ros2Config {
             ("colour_topic", &self.colour_topic),
             ("depth_topic", &self.depth_topic),
             ("camera_info_topic", &self.camera_info_topic),
+            ("imu_topic", &self.imu_topic),
+            ("gyro_topic", &self.gyro_topic),
+            ("accel_topic", &self.accel_topic),
             ("odom_topic", &self.odom_topic),
             ("tf_topic", &self.tf_topic),
             ("status_topic", &self.status_topic),

@@ -79,6 +79,8 @@ pub struct DiagnosticsWindow {
     received: VecDeque<i64>,
     published: VecDeque<Published>,
     last_status: Option<&'static str>,
+    /// The IMU samples the tracker took in over the run.
+    imu_samples: u64,
 }
 
 impl DiagnosticsWindow {
@@ -103,6 +105,11 @@ impl DiagnosticsWindow {
         });
         self.last_status = Some(status);
         self.forget_before(now_ns);
+    }
+
+    /// The tracker took in `samples` more IMU samples (reported once there are some).
+    pub fn imu_taken(&mut self, samples: u64) {
+        self.imu_samples += samples;
     }
 
     fn forget_before(&mut self, now_ns: i64) {
@@ -177,6 +184,12 @@ impl DiagnosticsWindow {
             value,
         })
         .collect::<Vec<_>>();
+        if self.imu_samples > 0 {
+            values.push(KeyValue {
+                key: "imu samples tracked".to_owned(),
+                value: self.imu_samples.to_string(),
+            });
+        }
         values.extend(restarts.iter().map(|(stage, n)| KeyValue {
             key: format!("restarts {stage}"),
             value: n.to_string(),

@@ -37,6 +37,7 @@ pub mod cdr;
 pub mod config;
 pub mod diagnostics;
 pub mod image;
+pub mod imu;
 pub mod msg;
 pub mod odom;
 pub mod pairing;

@@ -242,6 +242,26 @@ pub struct TfMessage {
     pub transforms: Vec<TransformStamped>,
 }
 
+/// `sensor_msgs/Imu`. Per REP 145, element 0 of a covariance is -1 when the message
+/// has no such estimate (an IMU without orientation), and all zero when unknown.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Imu {
+    /// Sample stamp and the IMU's frame.
+    pub header: Header,
+    /// Orientation estimate (none from a camera's IMU).
+    pub orientation: Quaternion,
+    /// Row-major 3x3.
+    pub orientation_covariance: [f64; 9],
+    /// rad/s.
+    pub angular_velocity: Vector3,
+    /// Row-major 3x3, (rad/s)^2.
+    pub angular_velocity_covariance: [f64; 9],
+    /// Specific force, m/s^2.
+    pub linear_acceleration: Vector3,
+    /// Row-major 3x3, (m/s^2)^2.
+    pub linear_acceleration_covariance: [f64; 9],
+}
+
 /// `std_msgs/String`: the tracking status (`tracked`, `degraded`, `predicted`,
 /// `relocalised`, `lost`) of each frame, what `ros2 topic echo` shows plainly.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -137,3 +137,13 @@ pub const COMPRESSED_IMAGE: MessageSchema = MessageSchema {
     main: "std_msgs/Header header\nstring format\nuint8[] data\n",
     dependencies: &[HEADER, TIME],
 };
+
+/// `sensor_msgs/msg/Imu`.
+pub const IMU: MessageSchema = MessageSchema {
+    name: "sensor_msgs/msg/Imu",
+    main: "std_msgs/Header header\ngeometry_msgs/Quaternion orientation\n\
+           float64[9] orientation_covariance\ngeometry_msgs/Vector3 angular_velocity\n\
+           float64[9] angular_velocity_covariance\ngeometry_msgs/Vector3 linear_acceleration\n\
+           float64[9] linear_acceleration_covariance\n",
+    dependencies: &[HEADER, TIME, QUATERNION, VECTOR3],
+};

@@ -14,6 +14,7 @@ fn topics() -> BagTopics {
         depth: "/d".to_owned(),
         camera_info: "/i".to_owned(),
         transport: Transport::Raw,
+        imu: None,
     }
 }
 

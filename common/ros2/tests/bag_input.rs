@@ -22,6 +22,7 @@ fn topics(transport: Transport) -> BagTopics {
         depth: "/d".to_owned(),
         camera_info: "/i".to_owned(),
         transport,
+        imu: None,
     }
 }
 

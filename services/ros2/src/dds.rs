@@ -5,7 +5,8 @@
 //! transport, and the output publishers (reliable).
 
 use gfs_ros2::diagnostics::DiagnosticArray;
-use gfs_ros2::msg::{CameraInfo, CompressedImage, Image, Odometry, StringMsg, TfMessage};
+use gfs_ros2::imu::ImuTopic;
+use gfs_ros2::msg::{CameraInfo, CompressedImage, Image, Imu, Odometry, StringMsg, TfMessage};
 use gfs_ros2::transport::TransportImage;
 use gfs_ros2::{Ros2Config, Transport};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
@@ -71,6 +72,8 @@ pub struct Endpoints {
     pub depth: ImageSubscription,
     /// Camera info.
     pub camera_info: Subscription<CameraInfo>,
+    /// The IMU topics: unified, gyroscope, accelerometer.
+    pub imu: [(ImuTopic, Subscription<Imu>); 3],
     /// `/odom`.
     pub odom: Publisher<Odometry>,
     /// `/tf`.
@@ -114,6 +117,12 @@ pub fn localhost_only() -> bool {
 /// Sensor-data QoS of the camera subscriptions: best effort, the last few messages.
 fn sensor_qos() -> QosProfile {
     QosProfile::subscription_default().history(History::KeepLast { depth: 5 })
+}
+
+/// QoS of the IMU subscriptions: best effort, 0.25 s of a 400 Hz IMU (the loop may be
+/// busy converting an image for a few milliseconds).
+fn imu_qos() -> QosProfile {
+    QosProfile::subscription_default().history(History::KeepLast { depth: 100 })
 }
 
 /// The participant on the ROS domain and the node `name` on it.
@@ -178,6 +187,19 @@ pub fn endpoints(config: &Ros2Config) -> Result<Endpoints, DdsError> {
         "CameraInfo",
         &sensor,
     )?;
+    let imu_qos = imu_qos();
+    let mut imu = Vec::with_capacity(3);
+    for (which, name) in [
+        (ImuTopic::Unified, &config.imu_topic),
+        (ImuTopic::Gyro, &config.gyro_topic),
+        (ImuTopic::Accel, &config.accel_topic),
+    ] {
+        let t = topic(&mut node, name, "sensor_msgs", "Imu", &imu_qos)?;
+        imu.push((which, node.create_subscription(&t, Some(imu_qos.clone()))?));
+    }
+    let imu: [(ImuTopic, Subscription<Imu>); 3] = imu
+        .try_into()
+        .map_err(|_| "three IMU subscriptions expected")?;
     let odom_topic = topic(
         &mut node,
         &config.odom_topic,
@@ -210,6 +232,7 @@ pub fn endpoints(config: &Ros2Config) -> Result<Endpoints, DdsError> {
         colour,
         depth,
         camera_info: node.create_subscription(&info_topic, Some(sensor))?,
+        imu,
         odom: node.create_publisher(&odom_topic, Some(output.clone()))?,
         tf: node.create_publisher(&tf_topic, Some(output.clone()))?,
         status: node.create_publisher(&status_topic, Some(output.clone()))?,

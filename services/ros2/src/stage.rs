@@ -4,15 +4,18 @@
 use crate::dds::{DdsError, Endpoints, camera_info_only, endpoints};
 use crate::visuals::Visuals;
 use gfs_core::stamp::Stamp;
+use gfs_inertial::{ImuFeed, ImuSample};
 use gfs_ipc::{FrameLayout, IpcRun, RunId, Stage, ipc, monotonic_ns, topics};
 use gfs_pipeline::service::StageArgs;
 use gfs_pipeline::stages::StageContext;
+use gfs_pipeline::stages::imu::ImuOutbox;
 use gfs_pipeline::stages::ros2_frames::publish_pair;
 use gfs_pipeline::state::RESTARTS;
 use gfs_pipeline::wire::WirePose;
 use gfs_ros2::camera_info::{camera_from_info, cameras_differ};
 use gfs_ros2::diagnostics::DiagnosticsWindow;
 use gfs_ros2::image::{FrameConverter, Received};
+use gfs_ros2::imu::ImuInput;
 use gfs_ros2::msg::{Header, Time};
 use gfs_ros2::odom::{OdometryPublisherState, TrackedPose};
 use gfs_ros2::pairing::{Paired, Pairer};
@@ -31,6 +34,9 @@ const REPORT_EVERY: Duration = Duration::from_secs(1);
 /// A colour stamp this far before the last one (ns) is a camera that restarted its
 /// clock, not a late or repeated frame.
 const CAMERA_RESTART_NS: i64 = 1_000_000_000;
+/// How long a frame waits for an IMU sample past its stamp (the IMU's message is small
+/// and usually there before the images): the preintegration needs the interval covered.
+const IMU_WAIT: Duration = Duration::from_millis(10);
 
 /// Runs the stage until SIGINT / SIGTERM.
 ///
@@ -73,8 +79,16 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
     let mut last_published: Option<u64> = None;
     let mut diagnostics = DiagnosticsWindow::new();
     let mut next_report = Instant::now() + REPORT_EVERY;
+    let mut imu_input = ImuInput::new(ros2.imu_topics());
+    // Opened at the first IMU sample: a camera without IMU sends nothing on the topic.
+    let mut imu: Option<ImuOutbox<ipc::Service>> = None;
+    let mut imu_taken = Vec::new();
     while !ctx.stopping() {
         let mut busy = take_images(&dds, &mut pairer, (&colour_topic, &depth_topic));
+        if take_imu(&dds, &mut imu_input, &mut imu_taken) {
+            busy = true;
+            feed_imu(&ctx, &imu_input, &mut imu, &mut imu_taken)?;
+        }
         if !camera_checked && let Ok(Some((info, _))) = dds.camera_info.take() {
             camera_checked = true;
             match camera_from_info(&info, &ros2.camera_info_topic, config.camera.readout_s) {
@@ -112,6 +126,23 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
                         image: depth,
                         topic: &depth_topic,
                     };
+                    if imu.is_some() {
+                        let stamp = Stamp::from(colour.image.header.stamp);
+                        let deadline = Instant::now() + IMU_WAIT;
+                        while imu.as_mut().is_some_and(|i| !i.feed().reaches_past(stamp))
+                            && Instant::now() < deadline
+                        {
+                            std::thread::sleep(Duration::from_micros(200));
+                            take_imu(&dds, &mut imu_input, &mut imu_taken);
+                            feed_imu(&ctx, &imu_input, &mut imu, &mut imu_taken)?;
+                        }
+                        if let Some(imu) = imu.as_mut() {
+                            // A pair that fails below keeps its id: the next frame's batch
+                            // goes to the same id, and the tracker appends it.
+                            imu.prepare(next_id, stamp);
+                            imu.publish()?;
+                        }
+                    }
                     match publish_pair(&publisher, &layout, &mut converter, next_id, colour, depth)?
                     {
                         Ok(()) => {
@@ -183,6 +214,7 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
             }
             publish(dds.status.publish(messages.status), &ros2.status_topic);
             diagnostics.pose_published(now_ns as i64, latency_s, pose.status.as_str());
+            diagnostics.imu_taken(u64::from(wire.imu_samples));
         }
         if Instant::now() >= next_report {
             next_report += REPORT_EVERY;
@@ -204,6 +236,9 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
             publish(dds.diagnostics.publish(report), &ros2.diagnostics_topic);
         }
         if !busy {
+            if let Some(imu) = &imu {
+                imu.update_connections()?;
+            }
             publisher.update_connections()?;
             poses.wait(IDLE)?;
         }
@@ -279,6 +314,53 @@ fn take_images(
         }
     }
     any
+}
+
+/// Moves the IMU messages that arrived through `input`'s checks into `taken`; true
+/// when any arrived.
+fn take_imu(dds: &Endpoints, input: &mut ImuInput, taken: &mut Vec<ImuSample>) -> bool {
+    let mut any = false;
+    for (which, subscription) in &dds.imu {
+        loop {
+            match subscription.take() {
+                Ok(Some((message, _))) => {
+                    input.push(*which, &message, taken);
+                    any = true;
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    tracing::warn!("{:?} IMU topic: undecodable message: {e:?}", which);
+                    break;
+                }
+            }
+        }
+    }
+    any
+}
+
+/// Puts the samples `taken` into the IMU's feed, opening the `imu` topic at the first.
+fn feed_imu(
+    ctx: &StageContext<ipc::Service>,
+    input: &ImuInput,
+    imu: &mut Option<ImuOutbox<ipc::Service>>,
+    taken: &mut Vec<ImuSample>,
+) -> Result<(), DdsError> {
+    if taken.is_empty() {
+        return Ok(());
+    }
+    let outbox = match imu {
+        Some(outbox) => outbox,
+        None => {
+            let t = input.topics();
+            let name = format!("{} (or {} + {})", t.unified, t.gyro, t.accel);
+            tracing::info!("IMU samples from {name}: passed on to the tracker");
+            imu.insert(ImuOutbox::open(ctx, name, ImuFeed::LIVE_CAPACITY)?)
+        }
+    };
+    for sample in taken.drain(..) {
+        outbox.feed().push(sample);
+    }
+    Ok(())
 }
 
 fn publish<E: std::fmt::Debug>(result: Result<(), E>, topic: &str) {

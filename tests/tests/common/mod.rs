@@ -5,7 +5,7 @@
 
 use gfs_ipc::{IpcRun, Mode, RunId, TopicSubscriber, ipc, topics};
 use gfs_pipeline::wire::WirePose;
-use gfs_synth::{SynthConfig, SynthSequence};
+use gfs_synth::{SynthConfig, SynthImu, SynthSequence};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -47,14 +47,17 @@ pub fn binaries() -> &'static Path {
     })
 }
 
-/// The synthetic sequence every run plays (rendered once per target folder).
+/// The synthetic sequence every run plays (rendered once per target folder), with a
+/// RealSense-like IMU at 200 Hz (`imu.txt`), whose samples go to the tracker with the
+/// frames through every restart.
 pub fn sequence() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("synth_faults_{FRAMES}"));
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("synth_faults_imu_{FRAMES}"));
         if !dir.join("associations.txt").is_file() {
             let config = SynthConfig {
                 frames: FRAMES,
+                imu: Some(SynthImu::realsense_like(200.0)),
                 ..SynthConfig::default()
             };
             SynthSequence::new(config).write_tum(&dir, |_| ()).unwrap();

@@ -13,7 +13,7 @@
 //! are nearest-rank ([`Quantiles`]).
 //!
 //! ```
-//! use gfs_core::ids::FrameId;
+//! use gfs_core::{ids::FrameId, stamp::Stamp};
 //! use gfs_ipc::{MsgHeader, Stage, StageStamp, profile::Profile};
 //! let mut profile = Profile::new("lockstep");
 //! for k in 0..10u64 {

@@ -5,6 +5,7 @@
 
 mod bag_source;
 mod context;
+pub mod imu;
 mod join;
 mod lines;
 mod loop_closing;

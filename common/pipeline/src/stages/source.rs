@@ -4,11 +4,12 @@
 //! in place of the folder is played by [`super::bag_source`].
 
 use super::context::{POLL, StageContext, StageError};
+use super::imu::{ImuOutbox, say_skipped_lines};
 use crate::wire::WirePose;
 use gfs_core::Image;
 use gfs_core::ids::FrameId;
 use gfs_core::stamp::Stamp;
-use gfs_dataset::{DEFAULT_READ_AHEAD, Sequence};
+use gfs_dataset::{DEFAULT_READ_AHEAD, IMU_LIST, Sequence, read_imu};
 use gfs_ipc::{
     FrameImages, FrameLayout, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
     topics,
@@ -52,6 +53,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         Image::<u8>::new(width, height),
         Image::<f32>::new(width, height),
     );
+    let mut imu = open_imu(ctx, &sequence, start)?;
     let mut reader = sequence.frames_from(start, Some(total), DEFAULT_READ_AHEAD);
     if ctx.mode() == Mode::Realtime && start == 0 {
         await_stages(ctx, &publisher, &poses)?;
@@ -93,10 +95,17 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                 }
             }
         };
+        if let Some(imu) = imu.as_mut() {
+            imu.prepare(index as u64, timestamp);
+        }
         let publish = || -> Result<(), StageError> {
             let mut header = MsgHeader::new(FrameId(index as u64), timestamp);
             header.mark_received(Stage::Source);
             header.mark_started(Stage::Source);
+            // Inside the source's stamps (its cost is the stage's), before the frame.
+            if let Some(imu) = &imu {
+                imu.publish()?;
+            }
             let mut sample = publisher.loan_frame(&header, &layout)?;
             gfs_ipc::frame_view_mut(&mut sample, &layout)
                 .and_then(|mut planes| planes.copy_from(&images))
@@ -112,7 +121,8 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         ctx.made(index as u64);
         match ctx.mode() {
             Mode::Lockstep => {
-                if !await_pose(ctx, &publisher, &poses, index as u64, &publish)? {
+                let ports = (&publisher, imu.as_ref());
+                if !await_pose(ctx, ports, &poses, index as u64, &publish)? {
                     return Ok(());
                 }
             }
@@ -124,10 +134,39 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         }
     }
     while !ctx.stopping() {
+        if let Some(imu) = &imu {
+            imu.update_connections()?;
+        }
         publisher.update_connections()?;
         std::thread::sleep(POLL * 25);
     }
     Ok(())
+}
+
+/// The folder's `imu.txt` on the `imu` topic, `None` without one; resuming at frame
+/// `start`, the samples of the frames before it are passed.
+fn open_imu<S: Service>(
+    ctx: &StageContext<S>,
+    sequence: &Sequence,
+    start: usize,
+) -> Result<Option<ImuOutbox<S>>, StageError> {
+    let dataset = &ctx.settings.dataset;
+    let Some(list) = read_imu(dataset).map_err(|e| StageError::Dataset(e.to_string()))? else {
+        return Ok(None);
+    };
+    say_skipped_lines(&list.warnings);
+    let path = dataset.join(IMU_LIST).display().to_string();
+    let mut imu = ImuOutbox::open(ctx, path, usize::MAX)?;
+    for sample in list.samples {
+        imu.feed().push(sample);
+    }
+    if let Some(&before) = start
+        .checked_sub(1)
+        .and_then(|i| sequence.timestamps().get(i))
+    {
+        imu.prepare(start as u64 - 1, before);
+    }
+    Ok(Some(imu))
 }
 
 /// Stages that read every frame: points, lines, planes.
@@ -206,11 +245,12 @@ pub(super) fn pace<S: Service>(ctx: &StageContext<S>, clock: Instant, due: f64) 
 }
 
 /// Lockstep: waits for the pose of frame `id` (or a later one), publishing the frame
-/// again when none comes for a while (front-end stages restarted without it). False
-/// when told to stop.
+/// again when none comes for a while (front-end stages restarted without it); the IMU's
+/// batch reaches a late tracker from its history before the frame reaches the feature
+/// stages. False when told to stop.
 pub(super) fn await_pose<S: Service>(
     ctx: &StageContext<S>,
-    publisher: &TopicPublisher<S, u8>,
+    (publisher, imu): (&TopicPublisher<S, u8>, Option<&ImuOutbox<S>>),
     poses: &TopicSubscriber<S, WirePose>,
     id: u64,
     publish: &dyn Fn() -> Result<(), StageError>,
@@ -224,6 +264,9 @@ pub(super) fn await_pose<S: Service>(
         }
         if ctx.stopping() {
             return Ok(false);
+        }
+        if let Some(imu) = imu {
+            imu.update_connections()?;
         }
         publisher.update_connections()?;
         poses.wait(POLL * 5)?;

@@ -7,10 +7,13 @@
 //! answer comes frames later and tracking goes on from the frame it found.
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
+use super::imu::ImuInbox;
 use super::join::{FrameJoin, Joined, Part};
 use super::mapper::saved_maps;
 use crate::state::StateDir;
-use crate::wire::{WireKeyPoint, WireLine, WireManhattan, WirePose, WireTrackedFeature};
+use crate::wire::{
+    WireImuSample, WireKeyPoint, WireLine, WireManhattan, WirePose, WireTrackedFeature,
+};
 use gfs_ipc::{
     MAX_VARIABLE_MESSAGE_BYTES, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
     decode_message, encode_message, topics,
@@ -29,6 +32,8 @@ struct Ports<S: Service> {
     manhattan: TopicSubscriber<S, WireManhattan>,
     /// The planes and depth grid, subscribed only when the tracker uses them.
     surfaces: Option<TopicSubscriber<S, u8>>,
+    /// The IMU samples before each frame (nothing comes from an input without IMU).
+    imu: TopicSubscriber<S, WireImuSample>,
     maps: TopicSubscriber<S, u8>,
     poses: TopicPublisher<S, WirePose>,
     /// The frame's matches for viewers, sent only while one subscribes.
@@ -68,12 +73,14 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         } else {
             None
         },
+        imu: ctx.subscribe(topics::IMU)?,
         maps: ctx.subscribe(topics::LOCAL_MAP)?,
         poses: ctx.publish(topics::POSE, 1)?,
         tracked: ctx.publish(topics::TRACKED, 2048)?,
         keyframes: ctx.publish(topics::KEYFRAME, 1 << 20)?,
     };
     let mut join = FrameJoin::new(surfaces_expected);
+    let mut imu = ImuInbox::default();
     let mut outstanding: Option<Outstanding> = None;
     let mut scratch = Vec::new();
     let mut tracked = Vec::new();
@@ -82,6 +89,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             outstanding = None;
         }
         receive_features(&ports, &mut join, next_frame)?;
+        // After the features: a frame's batch is sent before the frame, so every
+        // feature received has its batch in by now.
+        imu.receive(&ports.imu, next_frame)?;
         let joined = match ctx.mode() {
             Mode::Lockstep => join.next_in_order(ctx.feature_deadline()),
             Mode::Realtime => join.next_newest(ctx.feature_deadline()),
@@ -110,6 +120,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         mark_ready(&mut header, Stage::Tracker, 0);
         header.mark_started(Stage::Tracker);
         let (id, timestamp) = (features.id, features.timestamp);
+        let imu_samples = imu.push_through(id.0, &mut session);
         let (mut pose, request, covariance) = if features.is_blank() {
             (session.skip(id, timestamp), None, None)
         } else if let Err(e) = features.check() {
@@ -162,7 +173,8 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         let wire = WirePose::new(&pose, predicted.as_ref(), keyframe)
             .with_covariance(covariance.as_ref())
             .with_map_from_odom(session.map_from_odom())
-            .with_anchor(session.anchor(&pose).as_ref());
+            .with_anchor(session.anchor(&pose).as_ref())
+            .with_imu_samples(imu_samples);
         ports.poses.publish_slice(&header, &[wire])?;
         if ports.tracked.subscriber_count() > 0
             && let Some(matches) = session.last_matches()

@@ -22,13 +22,14 @@ use gfs_ros2::visualisation::{
 };
 use std::path::{Path, PathBuf};
 
-/// The topics of `config` a bag is read for.
+/// The topics of `config` a bag is scanned for (the frames; not the IMU).
 pub fn bag_topics(config: &Config) -> BagTopics {
     BagTopics {
         colour: config.ros2.colour_topic.clone(),
         depth: config.ros2.depth_topic.clone(),
         camera_info: config.ros2.camera_info_topic.clone(),
         transport: config.ros2.transport,
+        imu: None,
     }
 }
 

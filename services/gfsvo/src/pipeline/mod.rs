@@ -91,6 +91,8 @@ pub struct PipelineOutcome {
     pub profile: Profile,
     /// Keyframes made.
     pub keyframes: usize,
+    /// The IMU samples the tracker took in.
+    pub imu_samples: u64,
     /// Restarts per stage.
     pub restarts: BTreeMap<&'static str, u32>,
     /// True when SIGINT / SIGTERM ended the run early.
@@ -203,6 +205,7 @@ struct Recorded {
     corrections: Corrections,
     anchors: Anchors,
     keyframes: usize,
+    imu_samples: u64,
     scenes: Scenes,
     views: FrameViews,
     interrupted: bool,
@@ -252,6 +255,7 @@ fn supervise<S: Service>(
     }
     bar.finish_and_clear();
     let keyframes = recorder.keyframes();
+    let imu_samples = recorder.imu_samples();
     let corrections = recorder.take_corrections();
     let anchors = recorder.take_anchors();
     let scenes = recorder.take_scenes();
@@ -264,6 +268,7 @@ fn supervise<S: Service>(
         corrections,
         anchors,
         keyframes,
+        imu_samples,
         scenes,
         views,
         interrupted,
@@ -295,6 +300,7 @@ fn finish(
         views: recorded.views,
         profile: recorded.profile,
         keyframes: recorded.keyframes,
+        imu_samples: recorded.imu_samples,
         restarts: totals.into_iter().collect(),
         interrupted: recorded.interrupted,
         leftovers,

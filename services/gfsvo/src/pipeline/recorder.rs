@@ -30,6 +30,8 @@ pub struct Recorder<S: Service> {
     corrections: Corrections,
     anchors: Anchors,
     keyframes: usize,
+    /// The IMU samples the tracker took in, over the frames recorded.
+    imu_samples: u64,
     profile: Profile,
     /// The tracker's map as a viewer draws it, after each keyframe, by the keyframe's
     /// frame id (`None`: not kept).
@@ -72,6 +74,7 @@ impl<S: Service> Recorder<S> {
             corrections: BTreeMap::new(),
             anchors: BTreeMap::new(),
             keyframes: 0,
+            imu_samples: 0,
             profile: Profile::new(label),
             scenes: None,
             tracked: None,
@@ -135,6 +138,7 @@ impl<S: Service> Recorder<S> {
                     self.anchors.insert(pose.id.0, anchor);
                 }
                 self.keyframes += wire.keyframe as usize;
+                self.imu_samples += u64::from(wire.imu_samples);
                 self.profile.record(&header, pose.status.as_str());
                 new += 1;
             }
@@ -162,6 +166,11 @@ impl<S: Service> Recorder<S> {
             }
         }
         Ok(new)
+    }
+
+    /// The IMU samples the tracker took in before the frames recorded.
+    pub fn imu_samples(&self) -> u64 {
+        self.imu_samples
     }
 
     /// Sleeps until a pose is published or `timeout` passed (a signal cuts it short).

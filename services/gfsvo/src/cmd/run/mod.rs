@@ -142,7 +142,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     let mut scene = None;
     let mut keyframe_scenes = Vec::new();
     let mut frame_views = pipeline::FrameViews::new();
-    let mut map_counts = None;
+    let map_counts;
     let (poses, odometry, loops, processed, timings, keyframes, restarts, covariances) = if args
         .mode
         == RunMode::Inline
@@ -258,6 +258,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
         }
         let processed = outcome.received.len();
+        map_counts = Some(serde_json::json!({ "imu_samples": outcome.imu_samples }));
         // trajectory.txt: each frame with the loop corrections its keyframe received
         // later (the mapper's last saved map); odometry.txt: the poses as published.
         (
