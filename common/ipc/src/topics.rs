@@ -87,8 +87,21 @@ pub const LOOP_VERDICT: TopicSpec = TopicSpec {
     kind: TopicKind::Variable,
 };
 
+/// anyone (`gfsvo ros2`'s `/gfsvo/save_map`) -> `mapper`: write the global map to a file
+/// now (bincode `gfs_pipeline::map_files::SaveMapRequest`).
+pub const SAVE_MAP: TopicSpec = TopicSpec {
+    name: "save-map",
+    kind: TopicKind::Variable,
+};
+/// `mapper` -> whoever asked: the file written or the error (bincode
+/// `gfs_pipeline::map_files::SaveMapReply`).
+pub const MAP_SAVED: TopicSpec = TopicSpec {
+    name: "map-saved",
+    kind: TopicKind::Variable,
+};
+
 /// Every topic of the pipeline.
-pub const ALL: [TopicSpec; 12] = [
+pub const ALL: [TopicSpec; 14] = [
     FRAME,
     IMU,
     POINTS,
@@ -101,6 +114,8 @@ pub const ALL: [TopicSpec; 12] = [
     LOCAL_MAP,
     KEYFRAME_MAP,
     LOOP_VERDICT,
+    SAVE_MAP,
+    MAP_SAVED,
 ];
 
 #[cfg(test)]

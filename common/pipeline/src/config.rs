@@ -288,6 +288,22 @@ impl Config {
             message: e.to_string(),
         })
     }
+
+    /// The camera and ORB pyramid a map file of a run with this config is made with.
+    ///
+    /// # Errors
+    /// [`ConfigError::Parse`] naming the invalid `camera.*` or `points.levels` field.
+    pub fn map_camera(&self) -> Result<gfs_odometry::map_file::MapCamera, ConfigError> {
+        let levels = u8::try_from(self.points.levels).map_err(|_| ConfigError::Parse {
+            path: "[points]".to_owned(),
+            message: format!("levels = {} must be below 256", self.points.levels),
+        })?;
+        Ok(gfs_odometry::map_file::MapCamera {
+            camera: self.camera()?.pinhole,
+            scale_factor: f64::from(self.points.scale_factor),
+            levels,
+        })
+    }
 }
 
 /// Longest line of an error message: a value pasted by mistake (megabytes of it) is

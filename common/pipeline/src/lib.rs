@@ -17,6 +17,7 @@
 
 mod checks;
 pub mod config;
+pub mod map_files;
 pub mod progress;
 pub mod scheduling;
 pub mod service;

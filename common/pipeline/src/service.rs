@@ -2,6 +2,7 @@
 //! the stage loop, and the exit code the supervisor reads.
 
 use crate::config::Config;
+use crate::map_files::MapFiles;
 use crate::stages::{StageContext, StageSettings, run_stage};
 use gfs_ipc::{IpcRun, Mode, RunId, Stage, ipc};
 use std::path::PathBuf;
@@ -43,6 +44,9 @@ pub struct StageArgs {
     /// Ablation: no loop closing.
     #[arg(long)]
     pub no_loop_closing: bool,
+    /// Map files (the mapper and the tracker start on a loaded map, the mapper saves).
+    #[command(flatten)]
+    pub map_files: MapFiles,
     /// Log filter (error, warn, info, debug, trace).
     #[arg(long, default_value = "warn", env = "GFSVO_LOG")]
     pub log: String,
@@ -69,6 +73,7 @@ impl StageArgs {
             dataset: self.dataset.clone(),
             frames: self.frames,
             max_rate: self.max_rate,
+            map_files: self.map_files.clone(),
         })
     }
 }

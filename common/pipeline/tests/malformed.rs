@@ -68,6 +68,7 @@ fn the_mapper_drops_bad_keyframe_messages_and_answers_the_next_good_one() {
         dataset: "unused".into(),
         frames: None,
         max_rate: None,
+        map_files: Default::default(),
     };
     let stop = Arc::new(AtomicBool::new(false));
     let mapper = {

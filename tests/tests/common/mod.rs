@@ -77,6 +77,8 @@ pub struct Outcome {
     pub restarts: BTreeMap<String, u64>,
     pub trajectory_lines: usize,
     pub stderr: String,
+    /// The `--json` summary.
+    pub json: serde_json::Value,
 }
 
 pub fn start(bin: &Path, run_id: &str, out: &Path, extra: &[&str]) -> Child {
@@ -130,6 +132,7 @@ pub fn finish(child: Child, out: &Path, run_id: &str) -> Outcome {
         restarts,
         trajectory_lines,
         stderr,
+        json,
     }
 }
 

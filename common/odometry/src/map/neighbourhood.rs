@@ -21,7 +21,45 @@ pub struct NeighbourhoodBounds {
     pub view_angle_rad: f64,
 }
 
+impl NeighbourhoodBounds {
+    /// The tracker's neighbourhood as `config` bounds it (`[mapping] tracker_keyframes`,
+    /// `[tracking] view_radius_m` and `view_angle_deg`).
+    pub fn of(config: &crate::config::OdometryConfig) -> Self {
+        Self {
+            keyframes: config.mapping.tracker_keyframes,
+            view_radius_m: config.tracking.view_radius_m,
+            view_angle_rad: config.tracking.view_angle_deg.to_radians(),
+        }
+    }
+}
+
 impl Map {
+    /// The keyframe nearest to `world_from_camera`: the nearest of those sharing its
+    /// view (`bounds`' radius and angle), else the nearest camera centre.
+    pub fn nearest_keyframe(
+        &self,
+        world_from_camera: &Isometry3<f64>,
+        bounds: &NeighbourhoodBounds,
+    ) -> Option<KeyFrameId> {
+        let mut sharing = Vec::new();
+        self.keyframes_sharing_view(
+            world_from_camera,
+            bounds.view_radius_m,
+            bounds.view_angle_rad,
+            &mut sharing,
+        );
+        let distance = |kf: &KeyFrame| {
+            (kf.world_from_camera().translation.vector - world_from_camera.translation.vector)
+                .norm()
+        };
+        sharing.first().map(|(_, kf)| *kf).or_else(|| {
+            self.keyframes
+                .values()
+                .min_by(|a, b| distance(a).total_cmp(&distance(b)).then(a.id.cmp(&b.id)))
+                .map(|kf| kf.id)
+        })
+    }
+
     /// The keyframes whose view `world_from_camera` shares (camera centres within
     /// `radius_m`, optical axes within `angle_rad`), closest first, into `out`
     /// (cleared first; `(distance, keyframe)`).

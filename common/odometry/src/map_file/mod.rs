@@ -28,7 +28,7 @@ use crate::map::manhattan::WorldManhattan;
 use gfs_core::camera::PinholeCamera;
 use header::{HEADER_BYTES, Header};
 use serde::{Deserialize, Serialize};
-use std::io::{Read, Write};
+use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 /// Largest payload read (1 GiB: a map of 3000 real keyframes is about 270 MB).
@@ -177,7 +177,8 @@ pub struct MapFileError {
     pub problem: MapFileProblem,
 }
 
-/// The file's bytes: header then payload.
+/// The file's bytes: header then payload (the figures of the save benchmark).
+#[cfg(test)]
 fn encode(
     camera: &MapCamera,
     map: &Map,
@@ -190,6 +191,57 @@ fn encode(
         payload_crc: crc32fast::hash(&payload),
     };
     Ok((header, payload))
+}
+
+/// Counts and checksums the payload on its way to the file.
+struct PayloadWriter<W> {
+    inner: W,
+    crc: crc32fast::Hasher,
+    len: u64,
+}
+
+impl<W: Write> Write for PayloadWriter<W> {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        let written = self.inner.write(bytes)?;
+        self.crc.update(&bytes[..written]);
+        self.len += written as u64;
+        Ok(written)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// Writes the map file into `file`: a blank header, the payload encoded straight into
+/// the file (no copy of a map of hundreds of megabytes in memory), then the header
+/// with the payload's length and checksum over the blank one. Returns the bytes.
+fn write_file(
+    file: std::fs::File,
+    camera: &MapCamera,
+    map: &Map,
+    manhattan: &WorldManhattan,
+) -> Result<(std::fs::File, u64), MapFileProblem> {
+    let mut out = std::io::BufWriter::with_capacity(1 << 20, file);
+    out.write_all(&[0; HEADER_BYTES])?;
+    let mut payload = PayloadWriter {
+        inner: out,
+        crc: crc32fast::Hasher::new(),
+        len: 0,
+    };
+    bincode::serde::encode_into_std_write(SavedMapRef { map, manhattan }, &mut payload, codec())?;
+    let header = Header {
+        camera: *camera,
+        payload_len: payload.len,
+        payload_crc: payload.crc.finalize(),
+    };
+    let mut file = payload
+        .inner
+        .into_inner()
+        .map_err(std::io::IntoInnerError::into_error)?;
+    file.seek(SeekFrom::Start(0))?;
+    file.write_all(&header.encode())?;
+    Ok((file, HEADER_BYTES as u64 + header.payload_len))
 }
 
 /// The map in `bytes` (a whole file) when it is intact, of this version, made with
@@ -265,7 +317,6 @@ pub fn save_map(
         path: path.to_owned(),
         problem,
     };
-    let (header, payload) = encode(camera, map, manhattan).map_err(named)?;
     let dir = match path.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => dir,
         _ => Path::new("."),
@@ -278,21 +329,19 @@ pub fn save_map(
         name.to_string_lossy(),
         std::process::id()
     ));
-    let write = || -> std::io::Result<()> {
-        let mut file = std::fs::File::create(&tmp)?;
-        file.write_all(&header.encode())?;
-        file.write_all(&payload)?;
+    let write = || -> Result<u64, MapFileProblem> {
+        let (file, bytes) = write_file(std::fs::File::create(&tmp)?, camera, map, manhattan)?;
         file.sync_all()?;
         drop(file);
         std::fs::rename(&tmp, path)?;
-        std::fs::File::open(dir)?.sync_all()
+        std::fs::File::open(dir)?.sync_all()?;
+        Ok(bytes)
     };
-    if let Err(e) = write() {
+    write().map_err(|problem| {
         // The target was not touched (the rename is the last step that changes it).
         let _ = std::fs::remove_file(&tmp);
-        return Err(named(e.into()));
-    }
-    Ok(HEADER_BYTES as u64 + header.payload_len)
+        named(problem)
+    })
 }
 
 /// Reads the map file at `path`, which must have been made with `camera`.

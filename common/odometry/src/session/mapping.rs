@@ -69,11 +69,7 @@ impl MappingSession {
             last_keyframe: None,
             relocalised: None,
             centre: None,
-            neighbourhood: NeighbourhoodBounds {
-                keyframes: config.mapping.tracker_keyframes,
-                view_radius_m: config.tracking.view_radius_m,
-                view_angle_rad: config.tracking.view_angle_deg.to_radians(),
-            },
+            neighbourhood: NeighbourhoodBounds::of(config),
             fixed: false,
             keyframes_added: 0,
             relocalisations: 0,
@@ -129,27 +125,17 @@ impl MappingSession {
         self.relocaliser.sync(&self.map);
     }
 
-    /// The keyframe of the map nearest to `world_from_camera`: the nearest of those
-    /// sharing its view (the tracker's view radius and angle), else the nearest centre.
+    /// Holds the map fixed from now on, as [`Self::start_from`] with `fixed` does (a
+    /// localising mapping half resumed from its checkpoint).
+    pub fn hold_fixed(&mut self) {
+        self.fixed = true;
+    }
+
+    /// The keyframe of the map nearest to `world_from_camera`
+    /// ([`Map::nearest_keyframe`] within the tracker's view bounds).
     pub fn nearest_keyframe(&self, world_from_camera: &Isometry3<f64>) -> Option<KeyFrameId> {
-        let bounds = &self.neighbourhood;
-        let mut sharing = Vec::new();
-        self.map.keyframes_sharing_view(
-            world_from_camera,
-            bounds.view_radius_m,
-            bounds.view_angle_rad,
-            &mut sharing,
-        );
-        let distance = |kf: &crate::map::KeyFrame| {
-            (kf.world_from_camera().translation.vector - world_from_camera.translation.vector)
-                .norm()
-        };
-        sharing.first().map(|(_, kf)| *kf).or_else(|| {
-            self.map
-                .keyframes()
-                .min_by(|a, b| distance(a).total_cmp(&distance(b)).then(a.id.cmp(&b.id)))
-                .map(|kf| kf.id)
-        })
+        self.map
+            .nearest_keyframe(world_from_camera, &self.neighbourhood)
     }
 
     /// The number of the last request applied (0 before the first).

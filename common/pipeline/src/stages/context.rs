@@ -2,6 +2,7 @@
 //! stop request.
 
 use crate::config::{Config, ConfigError};
+use crate::map_files::MapFiles;
 use crate::progress::ProgressBoard;
 use crate::state::{StateDir, StateError};
 use gfs_ipc::topics::TopicSpec;
@@ -50,6 +51,9 @@ pub enum StageError {
     /// The dataset cannot be opened.
     #[error("source: {0}")]
     Dataset(String),
+    /// The map file cannot be read (or is not this camera's).
+    #[error(transparent)]
+    MapFile(#[from] gfs_odometry::map_file::MapFileError),
     /// A front-end extractor refused its config.
     #[error("{stage}: {message}")]
     Setup {
@@ -75,6 +79,9 @@ pub struct StageSettings {
     pub frames: Option<usize>,
     /// Realtime: play at this rate (frames per second) instead of the capture times.
     pub max_rate: Option<f64>,
+    /// The map files: the mapper and the tracker start on a loaded map, the mapper
+    /// saves the global map.
+    pub map_files: MapFiles,
 }
 
 /// A stage's settings, node and stop request.

@@ -8,15 +8,19 @@
 //! loop corrections it sends back are applied between keyframes; in lockstep the
 //! mapper waits for the verdict on each keyframe before answering (up to the feature
 //! deadline, so that a dead loop stage cannot hang the run), as the inline odometry
-//! closes loops before answering.
+//! closes loops before answering. On a loaded map (`--load-map`) it starts from the
+//! file unless it has a checkpoint; it writes `--save-map` when it stops, and any file
+//! a [`SaveMapRequest`] names when one comes.
 
 use super::context::{POLL, StageContext, StageError};
+use crate::map_files::{SaveMapReply, SaveMapRequest, write_map};
 use crate::state::{StateDir, StateError};
 use gfs_ipc::{
     MAX_VARIABLE_MESSAGE_BYTES, Mode, MsgHeader, Service, Stage, TopicPublisher, TopicSubscriber,
     encode_message, topics,
 };
 use gfs_odometry::map::Map;
+use gfs_odometry::map_file::MapCamera;
 use gfs_odometry::session::{LoopVerdict, MapRequest, MapUpdate, MappingSession};
 use std::time::{Duration, Instant};
 
@@ -77,16 +81,27 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         MappingSession::new(&config, camera, scale, levels)
     };
     let state = ctx.state();
+    let files = &ctx.settings.map_files;
+    let map_camera = ctx.config().map_camera()?;
     match state.read::<MapUpdate>(GLOBAL_MAP_CHECKPOINT)? {
         Some(update) if update.check().is_ok() => {
             tracing::info!(request = update.seq, "mapper: resuming from the global map");
             session.restore(update);
+            if files.localize {
+                session.hold_fixed();
+            }
         }
-        Some(update) => tracing::warn!(
-            "{GLOBAL_MAP_CHECKPOINT}: {}; starting afresh",
-            update.check().unwrap_err()
-        ),
-        None => {}
+        checkpoint => {
+            if let Some(update) = checkpoint {
+                tracing::warn!(
+                    "{GLOBAL_MAP_CHECKPOINT}: {}; starting afresh",
+                    update.check().unwrap_err()
+                );
+            }
+            if let Some(saved) = files.load(&map_camera)? {
+                session.start_from(saved, files.localize);
+            }
+        }
     }
     let loops = if loop_stage {
         Some(LoopPorts {
@@ -98,6 +113,10 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     };
     let requests = ctx.subscribe::<u8>(topics::KEYFRAME)?;
     let publisher = ctx.publish::<u8>(topics::LOCAL_MAP, TYPICAL_MAP_BYTES)?;
+    let saves = SavePorts {
+        requests: ctx.subscribe(topics::SAVE_MAP)?,
+        replies: ctx.publish(topics::MAP_SAVED, 256)?,
+    };
     // The tracker's map and the whole map, encoded.
     let (mut bytes, mut global) = (Vec::new(), Vec::new());
     let budget = (ctx.mode() == Mode::Realtime)
@@ -108,10 +127,12 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         if let Some(loops) = &loops {
             loops.take(&mut session, None)?;
         }
+        saves.answer(&session, &map_camera)?;
         let Some((mut header, request)) =
             requests.receive_decoded::<MapRequest>(MAX_VARIABLE_MESSAGE_BYTES)?
         else {
             publisher.update_connections()?;
+            saves.replies.update_connections()?;
             if let Some(loops) = &loops {
                 loops.maps.update_connections()?;
             }
@@ -170,7 +191,47 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         let name = MAP_CHECKPOINTS[(session.last_applied() % 2) as usize];
         state.write_bytes(name, &bytes)?;
     }
+    if let Some(path) = &files.save_map
+        && let Err(e) = write_map(path, &map_camera, session.map(), session.manhattan())
+    {
+        tracing::error!("mapper: {e}");
+    }
     Ok(())
+}
+
+/// The mapper's ports for requests to save the map now.
+struct SavePorts<S: Service> {
+    requests: TopicSubscriber<S, u8>,
+    replies: TopicPublisher<S, u8>,
+}
+
+impl<S: Service> SavePorts<S> {
+    /// Writes the global map for every request received and answers each.
+    fn answer(&self, session: &MappingSession, camera: &MapCamera) -> Result<(), StageError> {
+        let mut bytes = Vec::new();
+        while let Some((header, request)) = self
+            .requests
+            .receive_decoded::<SaveMapRequest>(MAX_VARIABLE_MESSAGE_BYTES)?
+        {
+            let result = write_map(&request.path, camera, session.map(), session.manhattan())
+                .map_err(|e| {
+                    tracing::error!("mapper: {e}");
+                    e.to_string()
+                });
+            let reply = SaveMapReply {
+                id: request.id,
+                path: request.path,
+                result,
+            };
+            match encode_message(&reply, &mut bytes) {
+                Ok(_) => {
+                    self.replies.publish_slice(&header, &bytes)?;
+                }
+                Err(e) => tracing::error!("mapper: cannot encode the save reply: {e}"),
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Encodes the whole map (the checkpoint, the loop stage's message) into `bytes`;

@@ -4,7 +4,9 @@
 //! relocalise the frame in the whole map) and publishes the pose. Lockstep: the pose of
 //! a frame that asked is published after the mapper answered, as the in-process
 //! odometry does, so both give the same trajectory; in realtime a relocalisation's
-//! answer comes frames later and tracking goes on from the frame it found.
+//! answer comes frames later and tracking goes on from the frame it found. On a loaded
+//! map (`--load-map`) it starts on the map's neighbourhood as the inline odometry does,
+//! unless its checkpoint says where it was.
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
 use super::imu::ImuInbox;
@@ -63,6 +65,11 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         TrackingSession::new(config.odometry(), camera, scale, levels, &config.lines.grid);
     let state = ctx.state();
     let mut next_frame = resume(&state, &mut session)?;
+    if next_frame == 0
+        && let Some(saved) = ctx.settings.map_files.load(&ctx.config().map_camera()?)?
+    {
+        session.start_on_saved(saved, &ctx.settings.map_files.use_());
+    }
     let surfaces_expected = config.tracking.use_planes || config.tracking.use_depth_alignment;
     let ports = Ports {
         points: ctx.subscribe(topics::POINTS)?,

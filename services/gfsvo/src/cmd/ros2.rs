@@ -11,6 +11,7 @@ use crate::pipeline::{self, PipelineOptions};
 use gfs_core::camera::{Camera, CameraConfig};
 use gfs_core::stamp::Stamp;
 use gfs_ipc::{Mode, RunId};
+use gfs_pipeline::map_files::MapFiles;
 use gfs_pipeline::stages::StageSettings;
 use gfs_ros2::bag::Compression;
 use gfs_ros2::camera_info::cameras_differ;
@@ -73,6 +74,10 @@ pub struct Ros2Args {
     /// over the config's, with a warning); 0: track with the config's camera.
     #[arg(long, default_value_t = 10.0)]
     pub camera_info_timeout: f64,
+    /// Map files: the mapper starts on --load-map and writes --save-map at SIGINT /
+    /// SIGTERM (see `gfsvo run --help`).
+    #[command(flatten)]
+    pub map: MapFiles,
 }
 
 /// File in the state folder where the ROS 2 stage lists the frames it received.
@@ -115,6 +120,8 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
             &config_path,
         )?;
     }
+    // A bad map file is refused here, with its error, not by stages that keep dying.
+    args.map.load(&config.map_camera()?)?;
     let options = PipelineOptions {
         settings: StageSettings {
             mode: Mode::Realtime,
@@ -123,6 +130,7 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
             frames: None,
             max_rate: None,
             config: config.clone(),
+            map_files: args.map.clone(),
         },
         config_path: Some(config_path),
         no_lines: false,

@@ -350,6 +350,7 @@ fn stage_args(options: &PipelineOptions) -> Vec<OsString> {
     if options.no_loop_closing {
         args.push("--no-loop-closing".into());
     }
+    args.extend(s.map_files.stage_args());
     args
 }
 

@@ -5,7 +5,15 @@ use super::DepthAlignmentConfig;
 use crate::depth::grid::PosedGrid;
 use gfs_core::camera::PinholeCamera;
 use gfs_optim::DepthObservation;
-use nalgebra::{Isometry3, Matrix6, Point3};
+use gfs_planes::Plane;
+use nalgebra::{Isometry3, Matrix6, Point3, Vector3};
+
+/// Largest angle between a node's normal and a plane's for the node to lie on that
+/// plane, degrees: the planes stage's own region gate.
+const ON_PLANE_ANGLE_DEG: f64 = 15.0;
+/// Largest distance of a node from a plane for it to lie on that plane, in the
+/// sensor's depth sigmas at the node.
+const ON_PLANE_SIGMAS: f64 = 3.0;
 
 /// Pairs a frame's depth nodes with the reference frame's surface elements.
 #[derive(Debug, Default)]
@@ -23,9 +31,43 @@ pub struct DepthAssociator {
     normal_variance: f64,
     /// The frame's sampled nodes the last pass tried to pair.
     source_nodes: usize,
+    /// The frame's planes (unit normal towards the camera, offset), camera frame: a
+    /// node on one is paired along the plane's normal (reused).
+    planes: Vec<(Vector3<f64>, f64)>,
 }
 
 impl DepthAssociator {
+    /// Sets the planes of the frame the next passes pair (empty: none). A node on one of
+    /// them is paired along the plane's normal instead of its own: a depth sensor's
+    /// error is smooth across the image and moves with the camera (a triangulating
+    /// sensor's disparity field), so a wall's nodes curve and tilt the same way in
+    /// consecutive frames; along their own normals, that shared curvature would hold
+    /// the slide of a bare wall, which its plane leaves free, and pull the pose to where
+    /// the curvature sits in the image.
+    pub fn set_frame_planes(&mut self, planes: &[Plane]) {
+        self.planes.clear();
+        self.planes.extend(planes.iter().map(|p| {
+            let [x, y, z] = p.normal.map(f64::from);
+            (Vector3::new(x, y, z), f64::from(p.offset))
+        }));
+    }
+
+    /// The plane `q` (normal `normal`, camera frame) lies on, if any: within
+    /// [`ON_PLANE_ANGLE_DEG`] of its normal and [`ON_PLANE_SIGMAS`] depth sigmas of it.
+    fn plane_of(
+        &self,
+        config: &DepthAlignmentConfig,
+        q: &Vector3<f64>,
+        normal: &Vector3<f64>,
+    ) -> Option<Vector3<f64>> {
+        let min_cos = ON_PLANE_ANGLE_DEG.to_radians().cos();
+        let gate = ON_PLANE_SIGMAS * config.noise.sigma(q.z);
+        self.planes
+            .iter()
+            .find(|(n, d)| n.dot(normal) >= min_cos && (n.dot(q) + d).abs() <= gate)
+            .map(|(n, _)| *n)
+    }
+
     /// The pairs of `current` (at `current_from_world`) with `reference` (at
     /// `reference_from_world`) within `max_distance_m`, as world-frame observations;
     /// the sensor's share of their variance is scaled by `sensor_variance_scale`.
@@ -51,6 +93,7 @@ impl DepthAssociator {
         self.angles2.clear();
         self.source_nodes = 0;
         let world_from_reference = reference_from_world.inverse();
+        let world_from_current = current_from_world.inverse();
         let reference_from_current = reference_from_world * current_from_world.inverse();
         let min_cos = config.max_normal_angle_deg.to_radians().cos();
         let step = config.source_step.max(1);
@@ -92,12 +135,18 @@ impl DepthAssociator {
                     * (config.noise.sigma(q.z).powi(2) + config.noise.sigma(s.z).powi(2))
                     + (max_distance_m / 3.0).powi(2);
                 let tangential = offset - n * n.dot(&offset);
+                // On a plane, the plane's normal: fitted over the plane's many nodes,
+                // its tilt noise is nobody's.
+                let (normal_in_world, share) = match self.plane_of(config, &q, &q_normal) {
+                    Some(plane_normal) => (world_from_current.rotation * plane_normal, 0.0),
+                    None => (world_from_reference.rotation * n, share),
+                };
                 self.variances
                     .push((sigma2, tangential.norm_squared(), share));
                 self.observations.push(DepthObservation {
                     point_in_camera: q,
                     surface_in_world: (world_from_reference * Point3::from(s)).coords,
-                    normal_in_world: world_from_reference.rotation * n,
+                    normal_in_world,
                     inv_sigma2: 0.0,
                     normal_tilt_variance: 0.0,
                 });

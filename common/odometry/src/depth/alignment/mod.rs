@@ -14,10 +14,12 @@
 //! Each sampled node `q` of the frame's [`DepthGrid`] is moved into the reference with
 //! the current estimate, projected, and paired with the reference's surface at that
 //! pixel (its four nodes around it blended, [`DepthGrid::surface_at_pixel`]) when they
-//! are close and their normals agree. The distance is weighed with the depth noise of
-//! both ends as the sensor's family gives it ([`DepthNoise`], `[depth] sensor`),
-//! averaged over a node's block where the sensor's noise is independent from pixel to
-//! pixel ([`DepthAlignmentConfig::independent_pixels_per_node`]).
+//! are close and their normals agree; a node on one of the frame's planes is paired
+//! along that plane's normal ([`DepthAssociator::set_frame_planes`]). The distance is
+//! weighed with the depth noise of both ends as the sensor's family gives it
+//! ([`DepthNoise`], `[depth] sensor`), averaged over a node's block where the sensor's
+//! noise is independent from pixel to pixel
+//! ([`DepthAlignmentConfig::independent_pixels_per_node`]).
 
 use crate::depth::grid::DepthGrid;
 use crate::depth::noise::DepthNoise;

@@ -35,6 +35,9 @@ pub struct TrackingCheckpoint {
     /// The loop corrections so far, `map_from_odom`.
     #[serde(default = "Isometry3::identity")]
     pub map_from_odom: Isometry3<f64>,
+    /// Where the run stands in a map it was started on (a fixed map stays fixed).
+    #[serde(default)]
+    pub(super) saved: super::saved_map::OnSavedMap,
 }
 
 impl TrackingSession {
@@ -50,6 +53,7 @@ impl TrackingSession {
             sightings: self.sightings.clone(),
             manhattan: self.manhattan.clone(),
             map_from_odom: self.map_from_odom,
+            saved: self.saved,
         }
     }
 
@@ -64,6 +68,7 @@ impl TrackingSession {
         self.sightings = checkpoint.sightings;
         self.state = checkpoint.state;
         self.map_from_odom = checkpoint.map_from_odom;
+        self.saved = checkpoint.saved;
         match map {
             Some(update) => {
                 self.map = update.map;

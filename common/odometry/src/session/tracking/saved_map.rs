@@ -6,14 +6,16 @@
 
 use super::TrackingSession;
 use crate::frontend::features::FrameFeatures;
-use crate::map::Map;
 use crate::map::manhattan::WorldManhattan;
+use crate::map::{Map, NeighbourhoodBounds};
+use crate::map_file::SavedMap;
 use crate::session::messages::{KeyFrameRequest, TrackedAgainst};
 use crate::session::state::TrackingState;
 use crate::tracking::sightings::Sightings;
 use crate::tracking::tracker::TrackedFrame;
 use gfs_core::ids::KeyFrameId;
 use nalgebra::Isometry3;
+use serde::{Deserialize, Serialize};
 
 /// How a run uses a map loaded from a file.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -26,8 +28,9 @@ pub struct LoadedMapUse {
     pub initial_pose: Option<Isometry3<f64>>,
 }
 
-/// Where a session started on a saved map stands in it.
-#[derive(Clone, Copy, Debug, Default)]
+/// Where a session started on a saved map stands in it (kept in the checkpoint, so
+/// that a restarted tracker still holds the map fixed).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
 pub(super) struct OnSavedMap {
     /// The map is fixed: recentring requests instead of keyframe requests.
     pub fixed: bool,
@@ -54,6 +57,25 @@ impl OnSavedMap {
 }
 
 impl TrackingSession {
+    /// Starts on a map saved by an earlier run as [`crate::Odometry::start_from`] does,
+    /// for a tracking half whose mapping half runs elsewhere (the `tracker` service):
+    /// the neighbourhood of the keyframe nearest to `use_.initial_pose` is taken from
+    /// `saved` here (the same the mapping half would send), the rest of the map dropped.
+    /// Call before the first frame.
+    pub fn start_on_saved(&mut self, saved: SavedMap, use_: &LoadedMapUse) {
+        let mut whole = saved.map;
+        whole.canonicalise();
+        let bounds = NeighbourhoodBounds::of(&self.config);
+        let centre = use_
+            .initial_pose
+            .and_then(|pose| whole.nearest_keyframe(&pose, &bounds));
+        let map = match centre {
+            Some(kf) => whole.neighbourhood(&whole.neighbourhood_of(kf, &bounds)),
+            None => Map::default(),
+        };
+        self.start_on_map(map, saved.manhattan, centre, use_);
+    }
+
     /// Starts on a map saved by an earlier run: `map` is the mapping half's
     /// neighbourhood around `centre` (the keyframe nearest to `use_.initial_pose`), or
     /// a map without keyframes when there is no hint; `manhattan` the map's axes. With

@@ -1,6 +1,6 @@
 //! The status and the covariance a frame leaves with: a direction its measurements
 //! leave weak makes it `degraded` with a large sigma, a frame its features determine
-//! is `tracked` with a small one, and a frame nothing poses publishes none.
+//! is `tracked` with a small one.
 
 use crate::config::{OdometryConfig, TrackingConfig};
 use crate::frontend::features::FrameFeatures;
@@ -26,11 +26,11 @@ fn largest_translation_sigma(covariance: &nalgebra::Matrix6<f64>) -> (f64, Vecto
 }
 
 #[test]
-fn a_bare_wall_keeps_the_prediction_and_publishes_no_covariance() {
+fn a_bare_wall_is_degraded_with_its_slide_reported_free() {
     // A wall 2 m ahead (normal z), flat gray with its noise, no point, no line: its
-    // depth fixes the distance to it and the tilts, not the slide along it. The depth
-    // alignment does not pose a frame it leaves undetermined: the frame is
-    // `predicted`, with no covariance (a consumer gets its "do not trust" one).
+    // depth fixes the distance to it and the tilts, not the slide along it. The frame
+    // is posed on what its depth determines (the motion prior holds the slide) and is
+    // `degraded`, its covariance decimetres along the wall and millimetres across it.
     const WALL: [([f64; 3], f64); 1] = [([0.0, 0.0, 1.0], 2.0)];
     let flat = |_: &Vector3<f64>| 150.0;
     let config = TrackingConfig {
@@ -56,8 +56,14 @@ fn a_bare_wall_keeps_the_prediction_and_publishes_no_covariance() {
             features(k, &truth),
             &mut Sightings::default(),
         );
-        assert_eq!(frame.status, TrackingStatus::Predicted, "frame {k}");
-        assert_eq!(tracker.pose_covariance(&frame, None), None, "frame {k}");
+        assert_eq!(frame.status, TrackingStatus::Degraded, "frame {k}");
+        let c = tracker.pose_covariance(&frame, None).expect("a covariance");
+        let sigma = |i: usize| c[(i, i)].sqrt();
+        assert!(sigma(0) > 0.1 && sigma(1) > 0.1, "frame {k}: {c}");
+        assert!(sigma(2) < 0.005, "frame {k}: {c}");
+        // The distance to the wall is measured: the camera's depth within a millimetre.
+        let depth_error = (frame.camera_from_world * truth.inverse()).translation.z;
+        assert!(depth_error.abs() < 1e-3, "frame {k}: {depth_error}");
         tracker.finish_frame(frame);
     }
 }

@@ -407,8 +407,7 @@ impl Tracker {
         }
         let on_geometry =
             if (use_depth || use_planes) && self.last_frame_is_recent(frame.features.timestamp) {
-                self.track_on_geometry_levels(map, &mut frame)
-                    .or_else(|| self.register_far_frame(map, &mut frame, &predicted))
+                self.track_on_geometry_or_register(map, &mut frame, &predicted)
             } else {
                 None
             };

@@ -137,9 +137,9 @@ mod tests {
     }
 
     #[test]
-    fn two_parallel_walls_do_not_track_a_frame_on_planes() {
+    fn two_parallel_walls_leave_a_frame_on_planes_degraded() {
         // A corridor's two walls leave its axis, the vertical and the roll free: the
-        // frame keeps the prediction.
+        // frame is `degraded` (the motion prior holds what they leave free).
         let walls = [([1.0, 0.0, 0.0], -1.0), ([1.0, 0.0, 0.0], 1.0)];
         let (map, kf) = plane_map(&walls);
         let mut tracker = tracker();
@@ -150,7 +150,7 @@ mod tests {
         tracker.finish_frame(first);
         let moved = Isometry3::translation(0.0, 0.0, -0.02);
         let tracked = tracker.track(&map, frame(1, &moved, &walls), &mut Sightings::default());
-        assert_eq!(tracked.status, TrackingStatus::Predicted);
+        assert_eq!(tracked.status, TrackingStatus::Degraded);
         let constraint = gfs_optim::analyse_constraint(
             &crate::tracking::plane_association::self_information(
                 &config().planes,

@@ -196,6 +196,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             Some(id) => RunId::new(id)?,
             None => RunId::unique("run")?,
         };
+        let loaded_keyframes = args.map.check_load(&config.map_camera()?)?;
         let options = PipelineOptions {
             settings: StageSettings {
                 mode: if args.mode == RunMode::Realtime {
@@ -208,6 +209,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
                 frames: args.frames,
                 max_rate: args.max_rate,
                 config: config.clone(),
+                map_files: args.map.files.clone(),
             },
             config_path: source.config_path.clone(),
             no_lines: args.no_lines,
@@ -258,7 +260,17 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
             return Err(format!("files of the run left behind: {:?}", outcome.leftovers).into());
         }
         let processed = outcome.received.len();
-        map_counts = Some(serde_json::json!({ "imu_samples": outcome.imu_samples }));
+        // From the mapper's last map: keyframe ids count up from the loaded map's.
+        let made = |map: &gfs_odometry::map::Map| {
+            let added = map.next_keyframe_id().0.saturating_sub(loaded_keyframes);
+            (map.corrections(), added)
+        };
+        let (loops_closed, keyframes_added) = outcome.final_map.as_ref().map_or((0, 0), made);
+        map_counts = Some(serde_json::json!({
+            "loops_closed": loops_closed,
+            "keyframes_added": keyframes_added,
+            "imu_samples": outcome.imu_samples,
+        }));
         // trajectory.txt: each frame with the loop corrections its keyframe received
         // later (the mapper's last saved map); odometry.txt: the poses as published.
         (

@@ -61,9 +61,10 @@ impl Tracker {
 
     /// Tracks a frame the features lost on its planes and depth alone (each when
     /// switched on), from its current pose and matches, the photometric term reading
-    /// the intensities at `level`; true when enough depth pairs held, or planes did,
-    /// and together they determine the pose (a direction they leave free would drift
-    /// where the optimiser let it).
+    /// the intensities at `level`; true when enough depth pairs held, or planes did. A
+    /// direction they leave free stays where the motion prior holds it (a bare wall's
+    /// slide): what they determine is measured all the same, and the frame's status and
+    /// covariance say what they left free.
     pub(super) fn track_on_geometry(
         &mut self,
         map: &Map,
@@ -81,8 +82,7 @@ impl Tracker {
         self.keep_plane_inliers(frame);
         self.clear_planes();
         self.solver.set_prior(None);
-        (depth_ok || frame.inliers.planes > 0)
-            && self.status_from_information() == TrackingStatus::Tracked
+        depth_ok || frame.inliers.planes > 0
     }
 
     /// The coarse-to-fine association and optimisation passes of `gates`, against the
@@ -98,6 +98,8 @@ impl Tracker {
         sensor_variance_scale: f64,
         level: IntensityLevel,
     ) -> bool {
+        self.depth_associator
+            .set_frame_planes(&frame.features.planes);
         for pass in 0..gates.of(&self.config.depth).len() {
             let gate = gates.of(&self.config.depth)[pass];
             let Some((reference, reference_from_world)) = depth_reference(
@@ -280,6 +282,35 @@ impl Tracker {
         } else {
             (on_cells || on_coarse).then_some(TrackingStatus::Degraded)
         }
+    }
+
+    /// Tracks a frame the features lost on its geometry from `predicted`
+    /// ([`Self::track_on_geometry_levels`]); when that leaves the pose weak or fails,
+    /// the frame may be far from the prediction and is registered coarse to fine
+    /// ([`Self::register_far_frame`]). A registration that determines the pose wins;
+    /// otherwise a frame the geometry tracked from the prediction is tracked so again
+    /// (`Degraded`: the prior held what its geometry left free), and one it did not
+    /// keeps the registration's status.
+    pub(super) fn track_on_geometry_or_register(
+        &mut self,
+        map: &Map,
+        frame: &mut TrackedFrame,
+        predicted: &Isometry3<f64>,
+    ) -> Option<TrackingStatus> {
+        let from_prediction = self.track_on_geometry_levels(map, frame);
+        if from_prediction == Some(TrackingStatus::Tracked) {
+            return from_prediction;
+        }
+        let predicted_over_s = self.predicted_over_s;
+        let registered = self.register_far_frame(map, frame, predicted);
+        if registered == Some(TrackingStatus::Tracked) || from_prediction.is_none() {
+            return registered;
+        }
+        self.predicted_over_s = predicted_over_s;
+        frame.restart(predicted);
+        frame.inliers = Default::default();
+        self.keep_few_matches(map, frame, predicted);
+        self.track_on_geometry_levels(map, frame)
     }
 
     /// Registers a frame the motion model landed far from, which neither its features

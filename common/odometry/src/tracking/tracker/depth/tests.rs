@@ -234,9 +234,9 @@ fn a_keyframe_that_reaches_the_tracker_after_the_next_frame_is_its_depth_referen
 }
 
 #[test]
-fn two_parallel_walls_do_not_track_a_frame_on_depth() {
-    // A corridor's two walls (x = -1, x = 1) leave its axis free: the frame keeps
-    // the prediction instead of a pose along an unconstrained direction.
+fn two_parallel_walls_leave_the_corridor_axis_free() {
+    // A corridor's two walls (x = -1, x = 1) leave its axis free: the frame is
+    // `degraded`, its covariance a metre along the axis and millimetres across it.
     let walls = [([1.0, 0.0, 0.0], -1.0), ([1.0, 0.0, 0.0], 1.0)];
     let mut tracker = tracker();
     let map = Map::default();
@@ -244,9 +244,24 @@ fn two_parallel_walls_do_not_track_a_frame_on_depth() {
     let mut first = TrackedFrame::untracked(frame(0, &start, &walls), start);
     first.status = TrackingStatus::Tracked;
     tracker.finish_frame(first);
-    let moved = Isometry3::translation(0.0, 0.0, -0.02);
-    let tracked = tracker.track(&map, frame(1, &moved, &walls), &mut Sightings::default());
-    assert_eq!(tracked.status, TrackingStatus::Predicted);
+    // Two steps along the corridor: the second has a velocity, whose prior holds the
+    // axis.
+    for k in 1..=2 {
+        let moved = Isometry3::translation(0.0, 0.0, -0.02 * k as f64);
+        let tracked = tracker.track(&map, frame(k, &moved, &walls), &mut Sightings::default());
+        assert_eq!(tracked.status, TrackingStatus::Degraded, "frame {k}");
+        // Across the walls the frame is where it is.
+        let error = (tracked.camera_from_world * moved.inverse()).translation.x;
+        assert!(error.abs() < 1e-3, "frame {k}: {error} m");
+        if k == 2 {
+            let c = tracker
+                .pose_covariance(&tracked, None)
+                .expect("a covariance");
+            assert!(c[(2, 2)].sqrt() > 0.5, "{c}");
+            assert!(c[(0, 0)].sqrt() < 0.005, "{c}");
+        }
+        tracker.finish_frame(tracked);
+    }
 }
 
 /// Walks a bare corner (a floor, a wall ahead and a cabinet's side: `CORNER`, no point
