@@ -76,9 +76,10 @@ pub struct InertialResidual {
     pub jacobian_j: SMatrix<f64, 9, 9>,
 }
 
-/// Rotation logarithm (axis times angle).
-fn log_so3(m: &Matrix3<f64>) -> Vector3<f64> {
-    Rotation3::from_matrix_unchecked(*m).scaled_axis()
+/// Rotation logarithm (axis times angle), through the nearest unit quaternion: a
+/// product of rotations that rounds to a trace just above 3 has no angle by `acos`.
+pub fn log_so3(m: &Matrix3<f64>) -> Vector3<f64> {
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*m)).scaled_axis()
 }
 
 impl InertialResidual {

@@ -260,6 +260,7 @@ impl Config {
             keyframes: self.keyframes.clone(),
             mapping: self.mapping.clone(),
             loop_closing: self.loop_closing.clone(),
+            imu: self.imu.clone(),
         }
     }
 

@@ -22,6 +22,9 @@ pub struct OdometryConfig {
     pub mapping: MappingConfig,
     /// Loop detection, verification and the pose-graph correction.
     pub loop_closing: LoopClosingConfig,
+    /// The IMU's mount, noise and clock (`[imu]`), used with `[tracking] use_imu`
+    /// whenever samples come.
+    pub imu: gfs_inertial::ImuConfig,
 }
 
 /// `[tracking]`: frame-to-map tracking.
@@ -42,6 +45,9 @@ pub struct TrackingConfig {
     /// (plane-to-plane errors in the pose optimisation), and map planes created, fused
     /// and culled with the keyframes (ablation switch). Default true.
     pub use_planes: bool,
+    /// Use the IMU's samples when the caller pushes them: the prediction from their
+    /// preintegration and the inertial term of the pose (ablation switch). Default true.
+    pub use_imu: bool,
     /// `[tracking.planes]`: plane association gates and weights.
     pub planes: PlaneTrackingConfig,
     /// `[tracking.depth]`: the depth alignment.
@@ -97,6 +103,7 @@ impl Default for TrackingConfig {
             use_manhattan: true,
             use_depth_alignment: true,
             use_planes: true,
+            use_imu: true,
             planes: PlaneTrackingConfig::default(),
             depth: DepthAlignmentConfig::default(),
             points: PointMatchConfig::default(),

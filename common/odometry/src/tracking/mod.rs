@@ -11,6 +11,7 @@
 //! tracker saw of each landmark is counted in [`sightings`]; each pose leaves with a
 //! [`status`] and the covariance of [`pose_uncertainty`].
 
+pub mod inertial;
 pub mod matching;
 pub(crate) mod motion;
 pub(crate) mod motion_prior;

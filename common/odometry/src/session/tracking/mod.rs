@@ -4,10 +4,12 @@
 //! the maps the mapping half sends back.
 
 mod checkpoint;
+mod frame_pose;
 mod reset;
 mod saved_map;
 
 pub use checkpoint::TrackingCheckpoint;
+pub use frame_pose::FramePose;
 pub use reset::ResetError;
 pub use saved_map::LoadedMapUse;
 
@@ -21,6 +23,7 @@ use crate::map::Map;
 use crate::map::manhattan::WorldManhattan;
 use crate::mapping::keyframe_policy::{KeyframeContext, needs_keyframe};
 use crate::session::final_trajectory::FrameAnchor;
+use crate::tracking::inertial::InertialTracker;
 use crate::tracking::matching::ScalePyramid;
 use crate::tracking::sightings::Sightings;
 use crate::tracking::status::TrackingStatus;
@@ -28,37 +31,9 @@ use crate::tracking::tracker::{TrackedFrame, Tracker};
 use gfs_core::camera::PinholeCamera;
 use gfs_core::ids::{FrameId, KeyFrameId};
 use gfs_core::stamp::Stamp;
-use gfs_inertial::{ImuSample, ImuStream, Pushed};
+use gfs_inertial::{ImuSample, Pushed};
 use gfs_lines::grid::GridConfig;
 use nalgebra::{Isometry3, Rotation3, UnitQuaternion};
-use serde::{Deserialize, Serialize};
-
-/// The pose of one frame, as published.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct FramePose {
-    /// The frame.
-    pub id: FrameId,
-    /// Its capture stamp, as the source gave it.
-    pub timestamp: Stamp,
-    /// `world_from_camera` (T_wc) in the odometry frame (REP 105 `odom`): continuous,
-    /// loop corrections never move it; the map pose is `map_from_odom * this`
-    /// ([`TrackingSession::map_from_odom`]). Equal to the map pose until a loop closes.
-    pub world_from_camera: Isometry3<f64>,
-    /// How the pose was obtained.
-    pub status: TrackingStatus,
-}
-
-impl FramePose {
-    /// The pose of a tracked frame.
-    pub fn of(frame: &TrackedFrame) -> Self {
-        Self {
-            id: frame.features.id,
-            timestamp: frame.features.timestamp,
-            world_from_camera: frame.camera_from_world.inverse(),
-            status: frame.status,
-        }
-    }
-}
 
 /// A tracked frame's pose, and the keyframe request when it should become one.
 #[derive(Debug)]
@@ -107,8 +82,8 @@ pub struct TrackingSession {
     relocalised: Option<FramePose>,
     /// How a session started on a saved map stands in it.
     saved: saved_map::OnSavedMap,
-    /// The IMU samples not yet consumed by a frame, on the camera's clock.
-    imu: ImuStream,
+    /// The IMU's part of tracking (`None` with `[tracking] use_imu` off).
+    inertial: Option<InertialTracker>,
     /// The map a reset dropped, until the next frame was tracked against it.
     dropped: Option<Map>,
 }
@@ -137,23 +112,28 @@ impl TrackingSession {
             relocalising: None,
             relocalised: None,
             saved: saved_map::OnSavedMap::default(),
-            imu: ImuStream::new(
-                gfs_inertial::ImuConfig::default().max_gap_s,
-                Self::IMU_CAPACITY,
-            ),
+            inertial: config
+                .tracking
+                .use_imu
+                .then(|| InertialTracker::new(&config.imu)),
             config,
             dropped: None,
         }
     }
 
-    /// The most IMU samples kept waiting for frames (5 s at 400 Hz).
-    const IMU_CAPACITY: usize = 2000;
-
     /// Adds an IMU sample, stamped on the camera's clock, for the frames after it: the
     /// samples up to (and the first one past) a frame's stamp are pushed before the
-    /// frame is processed. Says what it did, so the caller can warn naming its source.
+    /// frame is processed. Says what it did, so the caller can warn naming its source;
+    /// with `[tracking] use_imu` off the sample is ignored (and said kept).
     pub fn push_imu(&mut self, sample: ImuSample) -> Pushed {
-        self.imu.push(sample)
+        self.inertial
+            .as_mut()
+            .map_or(Pushed::Kept, |inertial| inertial.push(sample))
+    }
+
+    /// The IMU's part of tracking (gravity, biases once initialised), when used.
+    pub fn inertial(&self) -> Option<&InertialTracker> {
+        self.inertial.as_ref()
     }
 
     /// The loop corrections taken in so far (REP 105 `map -> odom`): the map pose of a
@@ -268,7 +248,20 @@ impl TrackingSession {
             features.line_descriptors.clear();
             features.lines3d.clear();
         }
-        let (frame, start) = self.step(features);
+        if let Some(inertial) = &mut self.inertial {
+            let motion = self.tracker.predict_at(features.timestamp);
+            self.tracker
+                .set_inertial_prediction(inertial.predict(features.timestamp, motion.as_ref()));
+        }
+        let (mut frame, start) = self.step(features);
+        let inertial = self.inertial.as_mut().map(|inertial| {
+            inertial.finish(
+                frame.features.timestamp,
+                &mut frame.camera_from_world,
+                frame.status,
+                self.tracker.measured_information(),
+            )
+        });
         let tracked = frame.status.is_tracked();
         if tracked {
             if let Some(axes) = &frame.features.manhattan {
@@ -310,6 +303,10 @@ impl TrackingSession {
         if self.map_from_odom != Isometry3::identity() {
             pose.world_from_camera = self.map_from_odom.inverse() * pose.world_from_camera;
         }
+        if inertial.is_some_and(|i| i.carried) {
+            // The images gave nothing, the IMU carried the pose: not a guess yet.
+            pose.status = TrackingStatus::Degraded;
+        }
         let reset = start.is_some_and(|s| s.reset);
         let keyframe = if wants_keyframe {
             Some(self.request_keyframe(&frame, reset))
@@ -320,7 +317,10 @@ impl TrackingSession {
         let relocalisation = (lost && self.requests.pending().is_none())
             .then(|| self.request_relocalisation(&frame.features, &frame.camera_from_world));
         let covariance = tracked
-            .then(|| self.tracker.pose_covariance(&frame))
+            .then(|| {
+                self.tracker
+                    .pose_covariance(&frame, inertial.and_then(|i| i.covariance).as_ref())
+            })
             .flatten();
         self.tracker.finish_frame(frame);
         Ok(TrackOutput {
@@ -385,6 +385,9 @@ impl TrackingSession {
         self.relocalised = Some(pose);
         self.saved.placed(Some(found.keyframe));
         self.tracker.set_reference(found.keyframe);
+        if let Some(inertial) = &mut self.inertial {
+            inertial.relocalised(found.timestamp, &found.camera_from_world);
+        }
         self.tracker.relocalised(frame);
         self.state = TrackingState::Tracking;
         self.frames_since_keyframe = 0;
@@ -507,6 +510,9 @@ impl TrackingSession {
             return;
         };
         self.tracker.shift_world(&new_from_old);
+        if let Some(inertial) = &mut self.inertial {
+            inertial.shift_world(&new_from_old);
+        }
         self.map_from_odom = new_from_old * self.map_from_odom;
         tracing::info!(
             shift_m = new_from_old.translation.vector.norm(),

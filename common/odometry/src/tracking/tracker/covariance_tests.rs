@@ -57,7 +57,7 @@ fn a_bare_wall_is_degraded_with_its_slide_reported_free() {
             &mut Sightings::default(),
         );
         assert_eq!(frame.status, TrackingStatus::Degraded, "frame {k}");
-        let c = tracker.pose_covariance(&frame).expect("a covariance");
+        let c = tracker.pose_covariance(&frame, None).expect("a covariance");
         let sigma = |i: usize| c[(i, i)].sqrt();
         assert!(sigma(0) > 0.1 && sigma(1) > 0.1, "frame {k}: {c}");
         assert!(sigma(2) < 0.005, "frame {k}: {c}");
@@ -85,7 +85,7 @@ fn a_textured_frame_is_tracked_with_a_millimetre_sigma() {
     let truth = pose(0.001, 0.0);
     let frame = tracker.track(&map, scene.features(1, &truth), &mut Sightings::default());
     assert_eq!(frame.status, TrackingStatus::Tracked);
-    let covariance = tracker.pose_covariance(&frame).expect("a covariance");
+    let covariance = tracker.pose_covariance(&frame, None).expect("a covariance");
     let (sigma, _) = largest_translation_sigma(&covariance);
     assert!(sigma < 0.003, "{sigma} m");
 }
@@ -110,7 +110,7 @@ fn a_distant_facade_is_degraded_with_a_sigma_above_the_bound() {
     tracker.finish_frame(relinked(map.keyframe(kf).expect("kf")));
     let truth = pose(0.001, 0.0);
     let frame = tracker.track(&map, scene.features(1, &truth), &mut Sightings::default());
-    let covariance = tracker.pose_covariance(&frame).expect("a covariance");
+    let covariance = tracker.pose_covariance(&frame, None).expect("a covariance");
     let (sigma, direction) = largest_translation_sigma(&covariance);
     assert_eq!(
         frame.status,

@@ -116,6 +116,9 @@ pub struct Tracker {
     vignetting: Vignetting,
     /// The jitter of the tracked poses the measurements do not explain.
     jitter: PoseJitter,
+    /// The next frame's prediction from the IMU, when its samples cover the interval:
+    /// taken instead of the motion model's.
+    inertial_prediction: Option<Isometry3<f64>>,
 }
 
 impl Tracker {
@@ -156,6 +159,7 @@ impl Tracker {
             velocity_filter: FilteredVelocity::default(),
             vignetting: Vignetting::default(),
             jitter: PoseJitter::default(),
+            inertial_prediction: None,
             config,
             camera,
         }
@@ -179,14 +183,21 @@ impl Tracker {
 
     /// The covariance of `frame`, just tracked (before [`Self::finish_frame`]): the
     /// larger along every direction of what its measurements determine (the motion
-    /// prior left out) and of the jitter of the poses up to it
+    /// prior left out; with the IMU, `inertial`: its joint estimate with the inertial
+    /// term) and of the jitter of the poses up to it
     /// ([`crate::tracking::pose_uncertainty`]). `None` for a frame not posed by the
     /// optimisation (predicted, relocalised) or whose last solve did not converge.
-    pub fn pose_covariance(&self, frame: &TrackedFrame) -> Option<nalgebra::Matrix6<f64>> {
+    pub fn pose_covariance(
+        &self,
+        frame: &TrackedFrame,
+        inertial: Option<&nalgebra::Matrix6<f64>>,
+    ) -> Option<nalgebra::Matrix6<f64>> {
         let information = self.tracked_information.as_ref()?;
         self.solver.converged().then(|| {
             larger_of(
-                &measurement_covariance(information, self.config.depth.lever_arm_m),
+                &inertial.copied().unwrap_or_else(|| {
+                    measurement_covariance(information, self.config.depth.lever_arm_m)
+                }),
                 &self
                     .jitter
                     .covariance_with(&frame.camera_from_world, frame.features.timestamp.secs()),
@@ -205,6 +216,23 @@ impl Tracker {
     /// The pose predicted for the next frame, if any frame was seen.
     pub fn predict(&self) -> Option<Isometry3<f64>> {
         self.motion.predict()
+    }
+
+    /// The motion model's prediction of a frame at `timestamp`.
+    pub fn predict_at(&self, timestamp: gfs_core::stamp::Stamp) -> Option<Isometry3<f64>> {
+        self.motion.predict_at(timestamp)
+    }
+
+    /// The IMU's prediction of the next frame to track (`camera_from_world`), or `None`
+    /// for the motion model's.
+    pub fn set_inertial_prediction(&mut self, predicted: Option<Isometry3<f64>>) {
+        self.inertial_prediction = predicted;
+    }
+
+    /// What the measurements of the frame just tracked determine of its pose (`None`
+    /// when the images did not pose it).
+    pub fn measured_information(&self) -> Option<&nalgebra::Matrix6<f64>> {
+        self.tracked_information.as_ref()
     }
 
     /// The prediction the last [`Self::track`] started from (`camera_from_world`).
@@ -315,8 +343,9 @@ impl Tracker {
             self.vignetting.correct(&self.camera, &mut features.depth);
         }
         let predicted = self
-            .motion
-            .predict_at(features.timestamp)
+            .inertial_prediction
+            .take()
+            .or_else(|| self.motion.predict_at(features.timestamp))
             .unwrap_or_else(Isometry3::identity);
         if self.config.readout_s > 0.0
             && let Some(rate) = self.motion.angular_velocity()

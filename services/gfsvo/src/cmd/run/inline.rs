@@ -79,6 +79,11 @@ pub fn run(
     )?;
     frontend.set_keep_depth(odometry_config.tracking.use_depth_alignment);
     frontend.set_keep_planes(odometry_config.tracking.use_planes);
+    let mut imu = if odometry_config.tracking.use_imu {
+        ImuFeed::read(sequence, config.imu.time_offset_s)?
+    } else {
+        None
+    };
     let levels =
         u8::try_from(config.points.levels).map_err(|_| "points.levels must be below 256")?;
     let scale_factor = f64::from(config.points.scale_factor);
@@ -136,6 +141,9 @@ pub fn run(
                 )
             }
         };
+        if let Some(imu) = &mut imu {
+            imu.push_until(timestamp, &mut odometry);
+        }
         let rotation = odometry.predicted_rotation();
         let features = frontend.extract(id, timestamp, gray, depth, rotation.as_ref())?;
         let pose = if features.is_blank() {
@@ -170,6 +178,50 @@ pub fn run(
         keyframes_added: odometry.keyframes_added(),
         relocalisations: odometry.relocalisations(),
     })
+}
+
+/// The samples of the folder's `imu.txt`, handed to the odometry frame by frame.
+struct ImuFeed {
+    feed: gfs_inertial::ImuFeed,
+    batch: Vec<gfs_inertial::ImuSample>,
+    path: std::path::PathBuf,
+}
+
+impl ImuFeed {
+    /// The folder's samples moved onto the camera's clock by `offset_s`; `None` when
+    /// the folder has no `imu.txt`. Every line skipped is warned about by file and line.
+    fn read(sequence: &Sequence, offset_s: f64) -> CliResult<Option<Self>> {
+        let Some(list) = gfs_dataset::read_imu(sequence.dir())? else {
+            return Ok(None);
+        };
+        for warning in &list.warnings {
+            tracing::warn!("{warning}");
+        }
+        tracing::info!(samples = list.samples.len(), "IMU samples from imu.txt");
+        let mut feed = gfs_inertial::ImuFeed::new(offset_s, list.samples.len());
+        for sample in list.samples {
+            feed.push(sample);
+        }
+        Ok(Some(Self {
+            feed,
+            batch: Vec::new(),
+            path: sequence.dir().join(gfs_dataset::IMU_LIST),
+        }))
+    }
+
+    /// Pushes the samples up to `stamp` and the first one past it.
+    fn push_until(&mut self, stamp: gfs_core::stamp::Stamp, odometry: &mut Odometry) {
+        self.batch.clear();
+        self.feed.through(stamp, &mut self.batch);
+        for sample in &self.batch {
+            match odometry.push_imu(*sample) {
+                gfs_inertial::Pushed::Kept => {}
+                gfs_inertial::Pushed::KeptWith(issue) | gfs_inertial::Pushed::Dropped(issue) => {
+                    tracing::warn!("{}: {issue}", self.path.display());
+                }
+            }
+        }
+    }
 }
 
 /// The size of the maps as messages, and what the whole map costs the loop stage.

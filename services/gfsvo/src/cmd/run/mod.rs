@@ -75,6 +75,9 @@ pub struct RunArgs {
     /// Ablation: run without loop closing.
     #[arg(long)]
     pub no_loop_closing: bool,
+    /// Ablation: run without the IMU's samples (`imu.txt`).
+    #[arg(long)]
+    pub no_imu: bool,
     /// Print the summary as one JSON object (ATE, frames per status, timings, and with
     /// ground truth the NEES of the published covariances as `gfsvo eval --consistency`).
     #[arg(long)]
@@ -115,6 +118,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
     config.tracking.use_lines &= !args.no_lines;
     config.tracking.use_manhattan &= !args.no_manhattan;
     config.loop_closing.enabled &= !args.no_loop_closing;
+    config.tracking.use_imu &= !args.no_imu;
     if args.mcap.is_some() && args.mode == RunMode::Inline {
         return Err(
             "--mcap records the pose covariances of the pipeline modes, not of inline".into(),

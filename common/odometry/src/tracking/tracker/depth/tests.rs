@@ -254,7 +254,9 @@ fn two_parallel_walls_leave_the_corridor_axis_free() {
         let error = (tracked.camera_from_world * moved.inverse()).translation.x;
         assert!(error.abs() < 1e-3, "frame {k}: {error} m");
         if k == 2 {
-            let c = tracker.pose_covariance(&tracked).expect("a covariance");
+            let c = tracker
+                .pose_covariance(&tracked, None)
+                .expect("a covariance");
             assert!(c[(2, 2)].sqrt() > 0.5, "{c}");
             assert!(c[(0, 0)].sqrt() < 0.005, "{c}");
         }
