@@ -6,8 +6,8 @@ implementations not of this project and played with `gfsvo run BAG --mcap`:
    byte-identical to the folder's.
 2. image_transport's compressed colour (png) and compressedDepth (png, 16UC1):
    byte-identical to the same frames as raw rgb8 + 16UC1 (PNG is lossless; 16UC1 because
-   compressedDepth carries millimetres); jpeg colour (quality 95, 4:2:0): ATE within 25 %
-   of it, the spread one run's ATE shows under changes below one grey level (see below).
+   compressedDepth carries millimetres); jpeg colour (quality 95, 4:2:0): ATE within 10 %
+   of the folder's (1.008 measured; see below for how one run's ATE moves).
 3. Every `--mcap` recording (zstd chunks, the default) read back by PyPI
    mcap-ros2-support: one /odom per pose, equal to odometry.txt and carrying its frame's
    stamp exactly (integer sec, nanosec).
@@ -96,10 +96,12 @@ def main():
     # gave 1.19; jpeg through our decoder 1.075 at quality 95 and 0.98 at 80 (4:2:0, as
     # image_transport's OpenCV encodes), 1.19 at 95 with 4:4:4 chroma (more fidelity,
     # worse: not a systematic loss). On all 300 frames: noise 0.91, 1.01, 1.08; jpeg 95
-    # 1.01, 80 0.96, 4:4:4 1.14; libjpeg-turbo's decoding 1.16. A 10 % bound on one run is
-    # inside that spread; 25 % is above it. A transport fault (channels swapped, colour
-    # and depth of different frames, a wrong scale) costs far more.
-    assert ates["jpeg"] <= 1.25 * ates["mm"], "jpeg colour within 25 % of the raw images' ATE"
+    # 1.01, 80 0.96, 4:4:4 1.14; libjpeg-turbo's decoding 1.16. The run is deterministic
+    # (lockstep): this bag gives 1.008 of the folder's ATE, 1.075 of the raw bag's. A
+    # change elsewhere that moves it past 10 % deserves that look: the spread above says
+    # whether it is JPEG or chance. A transport fault (channels swapped, colour and depth
+    # of different frames, a wrong scale) costs far more.
+    assert ates["jpeg"] <= 1.10 * ates["folder"], "jpeg colour within 10 % of the folder's ATE"
     print(f"ros2 bags: all checks passed in {time.time() - t0:.0f} s")
 
 
