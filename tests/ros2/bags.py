@@ -15,35 +15,24 @@ implementations not of this project and played with `gfsvo run BAG --mcap`:
    frame posed, odometry.txt and each /odom stamped with its colour image's stamp bit
    for bit.
 """
-import json
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 import tum
 
+from harness import GFSVO, REPO, sh
+from harness import ate as ate_against
+
 HERE = Path(__file__).resolve().parent
-REPO = HERE.parent.parent
 DATA = REPO.parent / "shared" / "data" / "tum_fr1_rpy_head300"
 WORK = REPO / "target" / "ros2-test" / "bags"
-GFSVO = str(REPO / "target" / "release" / "gfsvo")
 PY = sys.executable
 FRAMES = 80
 
 
-
-def sh(*args):
-    print("+", " ".join(map(str, args)), flush=True)
-    done = subprocess.run(list(map(str, args)), text=True, capture_output=True)
-    if done.returncode != 0:
-        raise SystemExit(f"exit {done.returncode}:\n{done.stdout[-2000:]}{done.stderr[-3000:]}")
-    return done.stdout
-
-
 def ate(trajectory):
-    out = sh(GFSVO, "eval", "--gt", DATA / "groundtruth.txt", "--est", trajectory, "--json")
-    return json.loads(out)["ate_rmse_m"]
+    return ate_against(DATA / "groundtruth.txt", trajectory)
 
 
 def play(kind):

@@ -15,8 +15,6 @@
    checked in gfs-ros2's imu tests).
 """
 import json
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -24,19 +22,11 @@ from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
+from harness import GFSVO, REPO, sh
+
 HERE = Path(__file__).resolve().parent
-REPO = HERE.parent.parent
 WORK = REPO / "target" / "ros2-test" / "imu"
-GFSVO = str(REPO / "target" / "release" / "gfsvo")
 FRAMES = 60
-
-
-def sh(*args):
-    print("+", " ".join(map(str, args)), flush=True)
-    done = subprocess.run(list(map(str, args)), text=True, capture_output=True)
-    if done.returncode != 0:
-        raise SystemExit(f"exit {done.returncode}:\n{done.stdout[-2000:]}{done.stderr[-3000:]}")
-    return done.stdout
 
 
 def nanos(text):

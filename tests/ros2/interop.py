@@ -27,23 +27,18 @@ from pathlib import Path
 
 import tum
 
+from harness import GFSVO, REPO, loopback_cyclone, sh
+from harness import ate as ate_against
+
 HERE = Path(__file__).resolve().parent
-REPO = HERE.parent.parent
 DATA = REPO.parent / "shared" / "data" / "tum_fr1_rpy_head300"
 BIN = REPO / "target" / "release"
 WORK = REPO / "target" / "ros2-test"
 PY = sys.executable
-GFSVO = str(BIN / "gfsvo")
-
-
-def sh(*args, **kw):
-    print("+", " ".join(map(str, args)), flush=True)
-    return subprocess.run(list(map(str, args)), check=True, text=True, capture_output=True, **kw).stdout
 
 
 def ate(trajectory):
-    out = sh(GFSVO, "eval", "--gt", DATA / "groundtruth.txt", "--est", trajectory, "--json")
-    return json.loads(out)["ate_rmse_m"]
+    return ate_against(DATA / "groundtruth.txt", trajectory)
 
 
 def live(name, kill_at=-1):
@@ -80,9 +75,7 @@ def percentile(values, q):
 
 def main():
     WORK.mkdir(parents=True, exist_ok=True)
-    (WORK / "cyclone.xml").write_text(
-        '<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface name="lo"/>'
-        "</Interfaces></General></Domain></CycloneDDS>\n")
+    loopback_cyclone(WORK)
     t0 = time.time()
 
     folder = WORK / "folder"

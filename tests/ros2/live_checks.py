@@ -28,24 +28,14 @@ from pathlib import Path
 
 import tum
 
+from harness import GFSVO, REPO, ate, loopback_cyclone, sh
+
 HERE = Path(__file__).resolve().parent
-REPO = HERE.parent.parent
 DATA = REPO.parent / "shared" / "data" / "tum_fr1_rpy_head300"
 BIN = REPO / "target" / "release"
 WORK = REPO / "target" / "ros2-test"
 PY = sys.executable
-GFSVO = str(BIN / "gfsvo")
 INFO_TOPIC = "/camera/color/camera_info"
-
-
-def sh(*args):
-    print("+", " ".join(map(str, args)), flush=True)
-    return subprocess.run(list(map(str, args)), check=True, text=True, capture_output=True).stdout
-
-
-def ate(groundtruth, trajectory):
-    out = sh(GFSVO, "eval", "--gt", groundtruth, "--est", trajectory, "--json")
-    return json.loads(out)["ate_rmse_m"]
 
 
 def live(name, folder, config, peer_args=(), gfsvo_args=()):
@@ -97,9 +87,7 @@ def check_exact_stamps(name, summary, odom, out):
 
 def main():
     WORK.mkdir(parents=True, exist_ok=True)
-    (WORK / "cyclone.xml").write_text(
-        '<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface name="lo"/>'
-        "</Interfaces></General></Domain></CycloneDDS>\n")
+    loopback_cyclone(WORK)
     t0 = time.time()
     tum1 = REPO / "configs" / "tum1.toml"
 

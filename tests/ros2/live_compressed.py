@@ -13,26 +13,18 @@ import sys
 import time
 from pathlib import Path
 
+from harness import GFSVO, REPO, loopback_cyclone, sh
+from harness import ate as ate_against
+
 HERE = Path(__file__).resolve().parent
-REPO = HERE.parent.parent
 DATA = REPO.parent / "shared" / "data" / "tum_fr1_rpy_head300"
 WORK = REPO / "target" / "ros2-test" / "live_compressed"
-GFSVO = str(REPO / "target" / "release" / "gfsvo")
 PY = sys.executable
 FRAMES = 100
 
 
-def sh(*args):
-    print("+", " ".join(map(str, args)), flush=True)
-    done = subprocess.run(list(map(str, args)), text=True, capture_output=True)
-    if done.returncode != 0:
-        raise SystemExit(f"exit {done.returncode}:\n{done.stdout[-2000:]}{done.stderr[-3000:]}")
-    return done.stdout
-
-
 def ate(trajectory):
-    out = sh(GFSVO, "eval", "--gt", DATA / "groundtruth.txt", "--est", trajectory, "--json")
-    return json.loads(out)["ate_rmse_m"]
+    return ate_against(DATA / "groundtruth.txt", trajectory)
 
 
 def main():
@@ -41,9 +33,7 @@ def main():
     t0 = time.time()
     config = WORK / "fr1_compressed.toml"
     config.write_text((REPO / "configs" / "tum1.toml").read_text() + '\n[ros2]\ntransport = "compressed"\n')
-    (WORK / "cyclone.xml").write_text(
-        '<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface name="lo"/>'
-        "</Interfaces></General></Domain></CycloneDDS>\n")
+    loopback_cyclone(WORK)
     env = dict(os.environ, ROS_LOCALHOST_ONLY="1", ROS_DOMAIN_ID=str(60 + (os.getpid() + 7) % 100),
                CYCLONEDDS_URI=f"file://{WORK / 'cyclone.xml'}", GFSVO_LOG="warn")
     out = WORK / "live"

