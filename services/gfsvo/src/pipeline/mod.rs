@@ -125,12 +125,7 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
     };
     if options.threads {
         let node = run.node::<local::Service>("recorder")?;
-        let recorder = Recorder::new(&run, &node, options.settings.mode, label)?.keeping_scenes(
-            options.keep_scenes,
-            &run,
-            &node,
-            options.settings.mode,
-        )?;
+        let recorder = open_recorder(&run, &node, options, label)?;
         let mut pool =
             StageThreads::start(options.run_id.clone(), options.settings.clone(), policy)?;
         let result = supervise(&run, recorder, options, |_| pool.restart_dead());
@@ -140,12 +135,7 @@ pub fn run(options: &PipelineOptions) -> CliResult<PipelineOutcome> {
         finish(options, run.finish(), result, totals)
     } else {
         let node = run.node::<ipc::Service>("recorder")?;
-        let recorder = Recorder::new(&run, &node, options.settings.mode, label)?.keeping_scenes(
-            options.keep_scenes,
-            &run,
-            &node,
-            options.settings.mode,
-        )?;
+        let recorder = open_recorder(&run, &node, options, label)?;
         let dir = std::env::current_exe()?
             .parent()
             .map(Path::to_path_buf)
@@ -215,6 +205,17 @@ type Supervised = CliResult<Recorded>;
 
 /// Records poses until the last frame has one (or a signal came), restarting dead
 /// stages on the way.
+/// The supervisor's recorder of the run's poses (and, when asked, its scenes).
+fn open_recorder<S: Service>(
+    run: &IpcRun,
+    node: &iceoryx2::node::Node<S>,
+    options: &PipelineOptions,
+    label: &str,
+) -> Result<Recorder<S>, gfs_ipc::IpcError> {
+    let mode = options.settings.mode;
+    Recorder::new(run, node, mode, label)?.keeping_scenes(options.keep_scenes, run, node, mode)
+}
+
 fn supervise<S: Service>(
     run: &IpcRun,
     mut recorder: Recorder<S>,
