@@ -132,7 +132,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         Some(gt) => Some(Trajectory::read_tum(&gt)?),
         None => None,
     };
-    args.map.check(sequence.is_none(), source.timestamps.len())?;
+    args.map
+        .check(sequence.is_none(), source.timestamps.len())?;
     let remaining = source.timestamps.len() - args.map.start;
     let total = args.frames.map_or(remaining, |n| n.min(remaining));
     let timestamps = &source.timestamps[args.map.start..args.map.start + total];
