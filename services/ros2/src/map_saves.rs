@@ -111,6 +111,7 @@ impl MapSaves {
             self.respond(server, call, failure(message));
         }
         if !self.pending.is_empty() {
+            // A mapper restarted since the call gets the request from the history.
             self.requests.update_connections()?;
         }
         Ok(any)
@@ -131,6 +132,7 @@ impl MapSaves {
             id: monotonic_ns(),
             path: path.clone(),
         };
+        self.requests.update_connections()?;
         self.requests
             .publish_encoded(&MsgHeader::default(), &request, &mut self.bytes)?;
         tracing::info!(

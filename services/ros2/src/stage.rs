@@ -1,6 +1,6 @@
 //! The stage loop: DDS messages in, frames out; poses in, ROS 2 messages out; resets
-//! and pose hints asked for over ROS 2 on to the tracker, map saves to the mapper. It plays the source's role in the run (its
-//! stamps are the source's in `profile.json`).
+//! and pose hints asked for over ROS 2 on to the tracker, map saves to the mapper. It
+//! plays the source's role in the run (its stamps are the source's in `profile.json`).
 
 use crate::dds::{DdsError, Endpoints, camera_info_only, endpoints};
 use crate::map_saves::MapSaves;
