@@ -13,6 +13,7 @@
 
 mod blocks;
 mod config;
+mod correlation;
 mod lm;
 mod observations;
 mod problem;
@@ -100,7 +101,8 @@ pub fn optimize_pose_with_depth(
     result.converged &= result.inlier_count() > 0;
     result.camera_from_world = pose;
     let posterior = problem.linearize(&pose, result, false).h;
-    result.information = posterior - problem.prior_information(&pose);
+    result.correlated_excess = problem.correlated_excess(&pose, result, config.correlation_tile_px);
+    result.information = posterior - problem.prior_information(&pose) - result.correlated_excess;
     result.rms_error_px = problem.inlier_rms(&pose, result);
     result.covariance = if result.converged {
         posterior.cholesky().map(|c| c.inverse())

@@ -51,7 +51,7 @@ impl<'a> PoseProblem<'a> {
         Self {
             points: PointBlock::new(camera, points, config),
             lines: LineBlock::new(camera, lines, config),
-            depth: DepthBlock::new(surfaces.depth, config),
+            depth: DepthBlock::new(camera, surfaces.depth, config),
             planes: PlaneBlock::new(surfaces.planes, config),
             photometric: PhotometricBlock::new(camera, surfaces.photometric, config),
             prior: PriorBlock::new(surfaces.prior),
@@ -110,6 +110,28 @@ impl<'a> PoseProblem<'a> {
     /// The prior's information at `pose`, to take out of the posterior's.
     pub(super) fn prior_information(&self, pose: &Isometry3<f64>) -> Matrix6<f64> {
         self.prior.information_at(pose)
+    }
+
+    /// What the dense blocks' inliers at `pose` lend beyond what their errors'
+    /// correlation across the image supports (summed over the blocks); zero with
+    /// `tile_px` 0.
+    pub(super) fn correlated_excess(
+        &self,
+        pose: &Isometry3<f64>,
+        result: &mut PoseResult,
+        tile_px: f64,
+    ) -> Matrix6<f64> {
+        let mut excess = Matrix6::zeros();
+        if tile_px <= 0.0 {
+            return excess;
+        }
+        let mut tile_scores = std::mem::take(&mut result.tile_scores);
+        for_each_block!(self, |block| {
+            excess +=
+                block.correlated_excess(pose, block.inliers(result), tile_px, &mut tile_scores);
+        });
+        result.tile_scores = tile_scores;
+        excess
     }
 
     /// RMS of the inliers' pixel residual components; 0 without any.

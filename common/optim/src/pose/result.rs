@@ -1,7 +1,10 @@
 //! The output of the pose optimiser, reused across frames so that its inlier flags keep
 //! their buffers.
 
-use nalgebra::{Isometry3, Matrix6};
+use nalgebra::{Isometry3, Matrix6, Vector6};
+
+#[cfg(doc)]
+use super::PoseOptimizerConfig;
 
 #[cfg(doc)]
 use super::optimize_pose;
@@ -34,8 +37,15 @@ pub struct PoseResult {
     pub num_photometric_inliers: usize,
     /// Information matrix `J^T Omega J` of the inliers at the final pose (no kernel,
     /// no prior), in the left perturbation `[rho; phi]`: which directions the data
-    /// constrain.
+    /// constrain; less [`Self::correlated_excess`].
     pub information: Matrix6<f64>,
+    /// What the dense terms (photometric, depth pairs) would lend beyond what the
+    /// spread of their scores over image tiles supports, their errors being correlated
+    /// across the image (see [`PoseOptimizerConfig::correlation_tile_px`]); already
+    /// taken out of [`Self::information`].
+    pub correlated_excess: Matrix6<f64>,
+    /// The tiles' scores of the last term whose excess was measured (reused buffer).
+    pub(crate) tile_scores: Vec<Vector6<f64>>,
     /// RMS of the inliers' residual components (point u / v / disparity errors, line
     /// endpoint distances), pixels, unweighted; 0 without inliers.
     pub rms_error_px: f64,

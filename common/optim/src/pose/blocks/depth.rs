@@ -4,22 +4,30 @@
 //! slides along the surface ([`DepthObservation::normal_tilt_variance`]).
 
 use super::{Block, Gate, flag_within_gate, flagged};
+use crate::pose::correlation::TileScores;
 use crate::pose::lm::Normal;
 use crate::pose::{DepthObservation, PoseOptimizerConfig};
 use crate::residuals::PointToPlane;
 use crate::robust::Huber;
-use nalgebra::{Isometry3, Vector1};
+use gfs_core::camera::PinholeCamera;
+use nalgebra::{Isometry3, Matrix6, Point3, Vector1, Vector6};
 
 /// The depth pairs with their kernel and threshold.
 pub(crate) struct DepthBlock<'a> {
+    camera: &'a PinholeCamera,
     observations: &'a [DepthObservation],
     chi2: f64,
     huber: Huber,
 }
 
 impl<'a> DepthBlock<'a> {
-    pub(crate) fn new(observations: &'a [DepthObservation], config: &PoseOptimizerConfig) -> Self {
+    pub(crate) fn new(
+        camera: &'a PinholeCamera,
+        observations: &'a [DepthObservation],
+        config: &PoseOptimizerConfig,
+    ) -> Self {
         Self {
+            camera,
             observations,
             chi2: config.depth_chi2,
             huber: Huber::from_chi2(config.depth_chi2),
@@ -90,6 +98,31 @@ impl Block for DepthBlock<'_> {
                 normal.g -= l.offset_gradient * (w * obs.normal_tilt_variance);
             }
         }
+    }
+
+    fn correlated_excess(
+        &self,
+        pose: &Isometry3<f64>,
+        inliers: &[bool],
+        tile_px: f64,
+        tile_scores: &mut Vec<Vector6<f64>>,
+    ) -> Matrix6<f64> {
+        let mut tiles = TileScores::new(self.camera, tile_px, tile_scores);
+        let mut own = Normal::zeros();
+        for obs in flagged(self.observations, inliers) {
+            let Some(uv) = self.camera.project(&Point3::from(obs.point_in_camera)) else {
+                continue;
+            };
+            let pair = PointToPlane {
+                point_in_camera: obs.point_in_camera,
+            };
+            let l = pair.linearize(pose, &obs.surface_in_world, &obs.normal_in_world);
+            let before = own.g;
+            let w = own.add(&l.d_pose, &Vector1::new(l.error), obs.inv_sigma2, None);
+            let tilt = l.offset_gradient * (w * obs.normal_tilt_variance);
+            tiles.add(&uv, &(own.g - before - tilt));
+        }
+        tiles.excess(&own.h)
     }
 
     fn classify(&self, pose: &Isometry3<f64>, gate: Gate, inliers: &mut [bool]) {

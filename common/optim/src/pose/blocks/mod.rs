@@ -42,7 +42,7 @@ pub(crate) use prior::PriorBlock;
 use super::lm::Normal;
 use super::result::PoseResult;
 use crate::robust::Huber;
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Matrix6, Vector6};
 
 /// Which observations a classification lets through.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -94,6 +94,19 @@ pub(crate) trait Block {
     /// Flags each observation inlier when its chi-square at `pose` passes `gate`
     /// (invalid or non-finite: outlier).
     fn classify(&self, pose: &Isometry3<f64>, gate: Gate, inliers: &mut [bool]);
+
+    /// The information the block's inliers at `pose` lend beyond what their scores'
+    /// spread over image tiles of `tile_px` supports, `tile_scores` the tiles' buffer
+    /// ([`crate::pose::correlation`]); zero for a block of independent observations.
+    fn correlated_excess(
+        &self,
+        _pose: &Isometry3<f64>,
+        _inliers: &[bool],
+        _tile_px: f64,
+        _tile_scores: &mut Vec<Vector6<f64>>,
+    ) -> Matrix6<f64> {
+        Matrix6::zeros()
+    }
 
     /// Adds the squared pixel residuals of the inliers at `pose` and their component
     /// count, for [`PoseResult::rms_error_px`]; only the pixel terms (points, lines)

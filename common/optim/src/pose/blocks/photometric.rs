@@ -5,12 +5,13 @@
 
 use super::{Block, Gate, flagged};
 use crate::map_eigenvalues;
+use crate::pose::correlation::TileScores;
 use crate::pose::lm::Normal;
 use crate::pose::{PhotometricObservation, PhotometricTerm, PoseOptimizerConfig};
 use crate::residuals::{Photometric, PhotometricReading};
 use crate::robust::Huber;
 use gfs_core::camera::PinholeCamera;
-use nalgebra::{Isometry3, Matrix6, Vector1};
+use nalgebra::{Isometry3, Matrix6, Point3, Vector1, Vector6};
 
 /// The photometric term, when any, with its kernel and threshold.
 pub(crate) struct PhotometricBlock<'a> {
@@ -63,6 +64,60 @@ impl<'a> PhotometricBlock<'a> {
             readings.push(reading);
         }
         if square > 0.0 { cross / square } else { 1.0 }
+    }
+
+    /// The term's normal equations at `pose`, Huber-weighted when `robust`, each
+    /// inlier's score added to `tiles` where it is read when given.
+    fn own_normal(
+        &self,
+        term: &PhotometricTerm<'_>,
+        pose: &Isometry3<f64>,
+        inliers: &[bool],
+        robust: bool,
+        mut tiles: Option<&mut TileScores<'_>>,
+    ) -> Normal {
+        let readings = &mut *term.scratch.readings.borrow_mut();
+        let gain = self.read(term, pose, inliers, true, readings);
+        let mut own = Normal::zeros();
+        // sum w J_px^T J_px, and the weighted squared differences of the two gradients.
+        let mut pixel_information = Matrix6::zeros();
+        let (mut difference2, mut weight) = (0.0, 0.0);
+        for (obs, reading) in flagged(term.observations, inliers).zip(readings.iter()) {
+            let Some((r, l)) = reading
+                .as_ref()
+                .and_then(|r| Some((r, at_gain(obs, gain).linearize_reading(self.camera, r)?)))
+            else {
+                continue;
+            };
+            let w = own.add(
+                &l.d_pose,
+                &Vector1::new(l.error),
+                obs.inv_sigma2,
+                robust.then_some(&self.huber),
+            );
+            if let Some(tiles) = tiles.as_mut()
+                && let Some(uv) = self.camera.project(&Point3::from(r.point_in_camera))
+            {
+                tiles.add(&uv, &(l.d_pose.transpose() * (w * l.error)));
+            }
+            pixel_information += l.d_pixel.transpose() * l.d_pixel * w;
+            difference2 +=
+                obs.inv_sigma2 * (l.gradient - obs.reference_gradient * gain).norm_squared();
+            weight += obs.inv_sigma2;
+        }
+        // Each gradient component carries noise of variance sigma_g^2, which lends the
+        // sums `sigma_g^2 sum w J_px^T J_px` of information the surface does not give (a
+        // noisy gradient looks like texture, but the next frame's noise is another). The
+        // frame's and the reference's gradients see the same surface with independent
+        // noise: `E |g_c - gain g_r|^2 = 4 sigma_g^2`. A direction left with less than
+        // none has none.
+        if weight > 0.0 {
+            own.h = map_eigenvalues(
+                &(own.h - pixel_information * (difference2 / (4.0 * weight))),
+                |l| l.max(0.0),
+            );
+        }
+        own
     }
 }
 
@@ -125,46 +180,24 @@ impl Block for PhotometricBlock<'_> {
         robust: bool,
         normal: &mut Normal,
     ) {
+        if let Some(term) = &self.term {
+            normal.add_normal(&self.own_normal(term, pose, inliers, robust, None));
+        }
+    }
+
+    fn correlated_excess(
+        &self,
+        pose: &Isometry3<f64>,
+        inliers: &[bool],
+        tile_px: f64,
+        tile_scores: &mut Vec<Vector6<f64>>,
+    ) -> Matrix6<f64> {
         let Some(term) = &self.term else {
-            return;
+            return Matrix6::zeros();
         };
-        let readings = &mut *term.scratch.readings.borrow_mut();
-        let gain = self.read(term, pose, inliers, true, readings);
-        let mut own = Normal::zeros();
-        // sum w J_px^T J_px, and the weighted squared differences of the two gradients.
-        let mut pixel_information = Matrix6::zeros();
-        let (mut difference2, mut weight) = (0.0, 0.0);
-        for (obs, reading) in flagged(term.observations, inliers).zip(readings.iter()) {
-            let Some(l) = reading
-                .as_ref()
-                .and_then(|r| at_gain(obs, gain).linearize_reading(self.camera, r))
-            else {
-                continue;
-            };
-            let w = own.add(
-                &l.d_pose,
-                &Vector1::new(l.error),
-                obs.inv_sigma2,
-                robust.then_some(&self.huber),
-            );
-            pixel_information += l.d_pixel.transpose() * l.d_pixel * w;
-            difference2 +=
-                obs.inv_sigma2 * (l.gradient - obs.reference_gradient * gain).norm_squared();
-            weight += obs.inv_sigma2;
-        }
-        // Each gradient component carries noise of variance sigma_g^2, which lends the
-        // sums `sigma_g^2 sum w J_px^T J_px` of information the surface does not give (a
-        // noisy gradient looks like texture, but the next frame's noise is another). The
-        // frame's and the reference's gradients see the same surface with independent
-        // noise: `E |g_c - gain g_r|^2 = 4 sigma_g^2`. A direction left with less than
-        // none has none.
-        if weight > 0.0 {
-            own.h = map_eigenvalues(
-                &(own.h - pixel_information * (difference2 / (4.0 * weight))),
-                |l| l.max(0.0),
-            );
-        }
-        normal.add_normal(&own);
+        let mut tiles = TileScores::new(self.camera, tile_px, tile_scores);
+        let own = self.own_normal(term, pose, inliers, false, Some(&mut tiles));
+        tiles.excess(&own.h)
     }
 
     fn classify(&self, pose: &Isometry3<f64>, gate: Gate, inliers: &mut [bool]) {
@@ -317,15 +350,16 @@ mod tests {
     }
 
     /// The information of the pose at the identity from the stripes across x, noise
-    /// `sigma`, and the wall's depth.
+    /// `sigma`, and the wall's depth, as if the cells' errors were independent (the
+    /// excess their draw over the image's tiles shows put back).
     fn information(sigma: f64) -> Matrix6<f64> {
         let prior = PosePrior::isotropic(Isometry3::identity(), 0.01, 0.01);
-        align(
+        let result = align(
             &wall_cells(0.0, 2.0, false, sigma, 1),
             &wall_cells(0.0, 2.0, false, sigma, 2),
             Some(prior),
-        )
-        .information
+        );
+        result.information + result.correlated_excess
     }
 
     #[test]
