@@ -8,7 +8,8 @@ optical frame, most of them inliers), and /gfsvo/tracking_image (rgb8, the camer
 its rate of the data's clock, with the matches drawn in the inlier green.
 
 Arguments: RECORDING.mcap odometry.txt [PATH_RATE_HZ (default 1)
-[TRACKING_IMAGE_RATE_HZ (default 1) [WIDTH HEIGHT (default 640 480)]]]."""
+[TRACKING_IMAGE_RATE_HZ (default 1) [WIDTH HEIGHT (default 640 480)]]] [--keyframes N]
+(the keyframes the run made, `gfsvo run --json`'s `keyframes`: one /gfsvo/landmarks each)."""
 import json
 import struct
 import sys
@@ -17,6 +18,13 @@ from pathlib import Path
 import numpy as np
 from mcap_ros2.reader import read_ros2_messages
 
+args = sys.argv[1:]
+made = None
+if "--keyframes" in args:
+    at = args.index("--keyframes")
+    made = int(args[at + 1])
+    del args[at:at + 2]
+sys.argv[1:] = args
 mcap_path, odometry = sys.argv[1], sys.argv[2]
 rate = float(sys.argv[3]) if len(sys.argv) > 3 else 1.0
 image_rate = float(sys.argv[4]) if len(sys.argv) > 4 else 1.0
@@ -43,6 +51,7 @@ paths = by_topic.get("/gfsvo/path", [])
 assert len(clouds) >= 10, f"{len(clouds)} /gfsvo/landmarks: one per keyframe expected"
 assert len(clouds) == len(structures) == len(keyframes), \
     f"{len(clouds)} landmarks, {len(structures)} structure, {len(keyframes)} keyframes"
+assert made is None or len(clouds) == made, f"{len(clouds)} /gfsvo/landmarks, {made} keyframes made"
 assert [stamp(c.header) for c in clouds] == [stamp(k.header) for k in keyframes]
 
 sizes, farthest = [], 0.0
@@ -67,7 +76,7 @@ for s in structures:
     assert all(m.header.frame_id == "odom" for m in s.markers)
     lines = max(lines, len(names["lines"].points) // 2)
     planes = max(planes, len(names["planes"].points) // 6)
-assert lines > 0, "line markers"
+assert lines > 0 and planes > 0, f"line and plane markers: {lines} lines, {planes} planes"
 assert all(k.header.frame_id == "map" and len(k.poses) > 0 for k in keyframes)
 
 duration = rows[-1, 0] - rows[0, 0]

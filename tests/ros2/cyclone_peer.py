@@ -7,7 +7,8 @@ writes the /odom poses as JSON lines.
 Usage: cyclone_peer.py FOLDER OUT.jsonl [--rate 30] [--wait-match 60] [--frames N]
        [--stamps tum|nine] [--diagnostics DIAG.jsonl] [--distortion-model NAME]
        [--compressed] [--imu]
-       [--control FRAME:reset | FRAME:pose:x,y,z,qx,qy,qz,qw ...]
+       [--start N] [--control FRAME:reset | FRAME:pose:x,y,z,qx,qy,qz,qw | FRAME:save
+       | FRAME:hint:x,y,z,qx,qy,qz,qw | FRAME:odomhint:x,y,z,qx,qy,qz,qw ...]
 
 The CameraInfo is the folder's camera: its synthetic.toml `[camera]` (any lens model)
 when it has one, else TUM freiburg1's. `--stamps nine` stamps the frames on a clock
@@ -26,13 +27,18 @@ unified topic), before each frame the samples up to its stamp and the first past
 maps a service onto DDS: rq/gfsvo/resetRequest and rr/gfsvo/resetReply, the client's id
 and the call's number before the request) or publishes a base pose in odom on
 /gfsvo/reset_to_pose (geometry_msgs/PoseWithCovarianceStamped) when frame FRAME is
-published; the summary lists each call and whether its reply came.
+published; `save` calls /gfsvo/save_map (std_srvs/srv/Trigger, mapped the same way),
+`hint` publishes a base pose in map on /initialpose (as RViz's "2D Pose Estimate"),
+`odomhint` the same in odom (which is refused). The summary lists each call and whether
+its reply came (with a Trigger's success and message). `--start N` publishes the
+folder from its frame N (FRAME counts from there).
 
 Cyclone's Python writer must use XCDR1 to be read by RustDDS. Images are serialised by
 hand (numpy bytes after the CDR header fields), once, before publishing starts: the IDL
 serialiser writes a uint8 sequence element by element, too slow for 30 Hz in Python."""
 import argparse
 import io
+import itertools
 import json
 import tomllib
 import os
@@ -239,6 +245,21 @@ class EmptyReply(IdlStruct, typename="std_srvs::srv::dds_::Empty_Response_"):
 
 
 @dataclass
+class TriggerRequest(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Request_"):
+    client: uint64
+    seq: int64
+    structure_needs_at_least_one_member: uint8
+
+
+@dataclass
+class TriggerReply(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Response_"):
+    client: uint64
+    seq: int64
+    success: bool
+    message: str
+
+
+@dataclass
 class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
     x: float64
     y: float64
@@ -337,13 +358,15 @@ def main():
                     help="run --command when this frame is published (fault test)")
     ap.add_argument("--command", default="")
     ap.add_argument("--frames", type=int, default=0, help="publish only the first N frames")
+    ap.add_argument("--start", type=int, default=0, help="publish from the folder's frame N")
     ap.add_argument("--stamps", choices=["tum", "nine"], default="tum")
     ap.add_argument("--diagnostics", help="write the /diagnostics received here (JSON lines)")
     ap.add_argument("--distortion-model", help="publish this model name in the CameraInfo")
     ap.add_argument("--compressed", action="store_true")
     ap.add_argument("--imu", action="store_true", help="publish imu.txt on /camera/imu")
     ap.add_argument("--control", action="append", default=[],
-                    help="FRAME:reset or FRAME:pose:x,y,z,qx,qy,qz,qw (base in odom)")
+                    help="FRAME:reset, FRAME:pose:x,y,z,qx,qy,qz,qw (base in odom), FRAME:save, "
+                         "FRAME:hint:x,y,z,qx,qy,qz,qw (base in map) or FRAME:odomhint:...")
     args = ap.parse_args()
     controls = {}
     for spec in args.control:
@@ -353,7 +376,7 @@ def main():
     frame = "camera_color_optical_frame"
     frames = []
     t0 = time.time()
-    for i, (t_rgb, t_depth, rgb_path, depth_path) in enumerate(tum.frames(args.folder)):
+    for i, (t_rgb, t_depth, rgb_path, depth_path) in enumerate(itertools.islice(tum.frames(args.folder), args.start, None)):
         if args.frames and i >= args.frames:
             break
         sec, ns = tum.stamp(t_rgb)
@@ -404,8 +427,12 @@ def main():
         reply_r = DataReader(dp, Topic(dp, "rr/gfsvo/resetReply", EmptyReply), qos=reliable)
         pose_w = DataWriter(dp, Topic(dp, "rt/gfsvo/reset_to_pose", PoseWithCovarianceStamped),
                             qos=reliable)
+        save_w = DataWriter(dp, Topic(dp, "rq/gfsvo/save_mapRequest", TriggerRequest), qos=reliable)
+        saved_r = DataReader(dp, Topic(dp, "rr/gfsvo/save_mapReply", TriggerReply), qos=reliable)
+        hint_w = DataWriter(dp, Topic(dp, "rt/initialpose", PoseWithCovarianceStamped), qos=reliable)
         control_endpoints = [reset_w.get_matched_subscriptions, reply_r.get_matched_publications,
-                             pose_w.get_matched_subscriptions]
+                             pose_w.get_matched_subscriptions, save_w.get_matched_subscriptions,
+                             saved_r.get_matched_publications, hint_w.get_matched_subscriptions]
         client_id = 0x5EED0000 + os.getpid()
 
     w, h, model, d, fx, fy, cx, cy = folder_camera(args.folder, args.distortion_model)
@@ -441,10 +468,12 @@ def main():
     def read_odom():
         while not stop.is_set():
             if controls:
-                for r in reply_r.take(N=10):
+                for r in reply_r.take(N=10) + saved_r.take(N=10):
                     for call in calls:
                         if (r.client, r.seq) == (client_id, call["seq"]):
                             call["replied_s"] = time.time() - call["sent"]
+                            if isinstance(r, TriggerReply):
+                                call["success"], call["message"] = r.success, r.message
             for a in diag_r.take(N=10):
                 for st in a.status:
                     diagnostics.append({"received": time.time(), "level": st.level,
@@ -487,10 +516,14 @@ def main():
                     "seq": len(calls) + 1}
             if kind == "reset":
                 reset_w.write(EmptyRequest(client_id, call["seq"], 0))
+            elif kind == "save":
+                save_w.write(TriggerRequest(client_id, call["seq"], 0))
             else:
                 x, y, z, qx, qy, qz, qw = values
-                pose_w.write(PoseWithCovarianceStamped(
-                    Header(Time(sec, ns), "odom"),
+                writer, in_frame = {"pose": (pose_w, "odom"), "hint": (hint_w, "map"),
+                                    "odomhint": (hint_w, "odom")}[kind]
+                writer.write(PoseWithCovarianceStamped(
+                    Header(Time(sec, ns), in_frame),
                     PoseWithCovariance(Pose(Point(x, y, z), Quaternion(qx, qy, qz, qw)), [0.0] * 36)))
             calls.append(call)
     print(f"cyclone: published {len(frames)} frames in {time.time() - start:.1f} s", flush=True)

@@ -5,7 +5,7 @@
    byte-identical trajectory; its `--mcap` recording, read by PyPI mcap-ros2-support,
    has one /odom per pose, each equal to odometry.txt (the poses as published), and
    the visualisation topics (check_visualisation.py: landmarks, structure and keyframes
-   per keyframe, the path at 1 Hz ending with every pose).
+   per keyframe the run made, the path at 1 Hz ending with every pose).
 3. Live: Cyclone DDS publishes the folder at 30 Hz on loopback as rgb8 + 16UC1 mm +
    CameraInfo, `gfsvo ros2` tracks it, Cyclone receives /odom for >= 98 % of the frames;
    its ATE is at most 10 % above `gfsvo run` (lockstep) on the same 16UC1 data played
@@ -86,13 +86,14 @@ def main():
     sh("rm", "-rf", bag)
     sh(PY, HERE / "write_bag.py", DATA, bag)
     played = WORK / "bag"
-    sh(GFSVO, "--log", "warn", "run", bag, "--out", played, "--mcap", played / "odom.mcap")
+    run = json.loads(sh(GFSVO, "--log", "warn", "run", bag, "--out", played, "--mcap",
+                        played / "odom.mcap", "--json").splitlines()[-1])
     same = (folder / "trajectory.txt").read_bytes() == (played / "trajectory.txt").read_bytes()
     print(f"bag (rosbags, 32FC1): trajectory byte-identical to the folder's: {same}", flush=True)
     assert same, "a bag of the folder plays to the folder's trajectory"
     print(sh(PY, HERE / "check_mcap.py", played / "odom.mcap", played / "odometry.txt"), end="")
-    print(sh(PY, HERE / "check_visualisation.py", played / "odom.mcap", played / "odometry.txt"),
-          end="")
+    print(sh(PY, HERE / "check_visualisation.py", played / "odom.mcap", played / "odometry.txt",
+             "--keyframes", run["keyframes"]), end="")
     sh("rm", "-rf", bag)
 
     mm_bag = WORK / "fr1_mm_bag"

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The ROS 2 interop tests (tests/ros2/bags.py, imu_bags.py, interop.py, live_checks.py,
-# live_reset.py, live_compressed.py and live_visualisation.py say what they cover): sets up its own Python venv from PyPI (cached in target/ros2-venv), builds
+# live_reset.py, live_map.py, live_compressed.py and live_visualisation.py say what they cover): sets up its own Python venv from PyPI (cached in target/ros2-venv), builds
 # the executables, runs them.
 # Skips with a reason when ../shared/data is absent. Loopback only.
 set -euo pipefail
@@ -24,5 +24,6 @@ cargo build --release --workspace --bins --quiet
 "$VENV/bin/python" tests/ros2/interop.py
 "$VENV/bin/python" tests/ros2/live_checks.py
 "$VENV/bin/python" tests/ros2/live_reset.py
+"$VENV/bin/python" tests/ros2/live_map.py
 "$VENV/bin/python" tests/ros2/live_compressed.py
 "$VENV/bin/python" tests/ros2/live_visualisation.py

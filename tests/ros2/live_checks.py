@@ -38,8 +38,9 @@ PY = sys.executable
 INFO_TOPIC = "/camera/color/camera_info"
 
 
-def live(name, folder, config, peer_args=(), gfsvo_args=()):
-    """`gfsvo ros2` fed by the Cyclone peer: (summary, out folder, odom lines, gfsvo output)."""
+def live(name, folder, config, peer_args=(), gfsvo_args=(), before_stop=None):
+    """`gfsvo ros2` fed by the Cyclone peer: (summary, out folder, odom lines, gfsvo output).
+    `before_stop()` runs after the peer is done, before `gfsvo ros2` is stopped."""
     out = WORK / name
     env = dict(os.environ, ROS_LOCALHOST_ONLY="1", ROS_DOMAIN_ID=str(60 + os.getpid() % 100),
                CYCLONEDDS_URI=f"file://{WORK / 'cyclone.xml'}", GFSVO_LOG="warn")
@@ -52,6 +53,8 @@ def live(name, folder, config, peer_args=(), gfsvo_args=()):
         print(peer.stdout, end="", flush=True)
         if peer.returncode != 0:
             raise SystemExit(f"cyclone peer failed:\n{peer.stderr[-3000:]}")
+        if before_stop:
+            before_stop()
     finally:
         gfsvo.send_signal(signal.SIGINT)
         text, _ = gfsvo.communicate(timeout=60)

@@ -21,9 +21,14 @@ pub enum Mode {
 pub enum TopicKind {
     /// Frame images (~2 MB per sample at 640x480 RGB-D): few samples in flight.
     Frame,
-    /// Per-frame feature slices (points, lines, Manhattan axes, poses): the tracker
-    /// joins them by frame id, so a few frames are buffered.
+    /// Per-frame feature slices (points, lines, Manhattan axes): the tracker joins them
+    /// by frame id, so a few frames are buffered.
     Features,
+    /// Per-frame poses (a few hundred bytes each): every frame's is recorded, by a
+    /// supervisor that drains its queue between its other chores. Cleaning up after a
+    /// dead stage held it 110-190 ms (more on a loaded machine) while the other stages
+    /// went on, and a queue of 4 lost 2-10 poses of 80 frames to a mapper restart.
+    Poses,
     /// Rare variable-size bincode messages (keyframes, local-map snapshots):
     /// never dropped, and a restarted subscriber gets the latest ones back.
     Variable,
@@ -68,6 +73,7 @@ impl TopicQos {
             // Lockstep: the frame k the tracker still needs plus one, for a restart.
             (Mode::Lockstep, TopicKind::Frame) => (2, 2),
             (Mode::Lockstep, TopicKind::Features) => (2, 4),
+            (_, TopicKind::Poses) => (2, 256),
             // Realtime: newest frame wins; features keep a few frames for the join.
             (Mode::Realtime, TopicKind::Frame) => (1, 1),
             (Mode::Realtime, TopicKind::Features) => (2, 8),
@@ -93,7 +99,12 @@ mod tests {
     fn history_reaches_restarted_subscribers() {
         // iceoryx2 delivers min(history, subscriber buffer) samples on connection.
         for mode in [Mode::Lockstep, Mode::Realtime] {
-            for kind in [TopicKind::Frame, TopicKind::Features, TopicKind::Variable] {
+            for kind in [
+                TopicKind::Frame,
+                TopicKind::Features,
+                TopicKind::Poses,
+                TopicKind::Variable,
+            ] {
                 let q = TopicQos::new(mode, kind);
                 assert!(q.history >= 1, "{mode:?} {kind:?}");
                 assert!(q.subscriber_buffer >= 1);

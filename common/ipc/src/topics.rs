@@ -55,7 +55,7 @@ pub const IMU: TopicSpec = TopicSpec {
 /// `tracker` -> recorder, `source` (lockstep pacing): the pose and status of frame k.
 pub const POSE: TopicSpec = TopicSpec {
     name: "pose",
-    kind: TopicKind::Features,
+    kind: TopicKind::Poses,
 };
 /// `tracker` -> recorder, `gfsvo-ros2`: the matched keypoints and lines of frame k, for
 /// viewers (published only while someone subscribes).

@@ -15,6 +15,10 @@ pub enum Control {
     /// Start a new map with the camera at this `world_from_camera` (odometry frame),
     /// at rest; the odometry goes on from there.
     ResetToPose(Isometry3<f64>),
+    /// Localising in a loaded map: the camera is near this `world_from_camera` (the
+    /// map's frame); the next frame is tracked from there against the map around it,
+    /// as `--initial-pose` places the first frame.
+    RelocaliseNear(Isometry3<f64>),
 }
 
 /// A request and its number.

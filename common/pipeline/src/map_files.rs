@@ -134,6 +134,8 @@ pub struct SaveMapReply {
     pub path: PathBuf,
     /// The bytes written, or the error naming the file.
     pub result: Result<u64, String>,
+    /// Keyframes in the map written.
+    pub keyframes: usize,
 }
 
 /// `x,y,z,qx,qy,qz,qw` as `world_from_camera`.

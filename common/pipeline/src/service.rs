@@ -29,7 +29,10 @@ pub struct StageArgs {
     /// Folder for the checkpoints a restarted stage resumes from.
     #[arg(long)]
     pub state_dir: Option<PathBuf>,
-    /// Play only the first N frames (source).
+    /// Start at frame N of the dataset, which becomes the run's frame 0 (source).
+    #[arg(long, default_value_t = 0)]
+    pub start: usize,
+    /// Play only N frames from --start (source).
     #[arg(long)]
     pub frames: Option<usize>,
     /// Realtime: play at this many frames per second instead of the capture times.
@@ -71,6 +74,7 @@ impl StageArgs {
             },
             state_dir: self.state_dir.clone(),
             dataset: self.dataset.clone(),
+            start: self.start,
             frames: self.frames,
             max_rate: self.max_rate,
             map_files: self.map_files.clone(),

@@ -66,6 +66,7 @@ fn the_mapper_drops_bad_keyframe_messages_and_answers_the_next_good_one() {
         mode: Mode::Lockstep,
         state_dir: None,
         dataset: "unused".into(),
+        start: 0,
         frames: None,
         max_rate: None,
         map_files: Default::default(),

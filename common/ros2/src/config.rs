@@ -63,6 +63,11 @@ pub struct Ros2Config {
     /// `geometry_msgs/PoseWithCovarianceStamped` input (as rtabmap's `initialpose`):
     /// start a new map with the base at that pose in `odom_frame`.
     pub reset_to_pose_topic: String,
+    /// `std_srvs/srv/Trigger` service: write the global map to `--save-map` now.
+    pub save_map_service: String,
+    /// `geometry_msgs/PoseWithCovarianceStamped` input in `map_frame` (RViz's "2D Pose
+    /// Estimate"): while localising, where to look for the camera in the loaded map.
+    pub initial_pose_topic: String,
     /// `header.frame_id` of the odometry (REP 105 `odom`).
     pub odom_frame: String,
     /// Parent frame of the loop correction `map -> odom` on `/tf` (REP 105 `map`),
@@ -105,6 +110,8 @@ impl Default for Ros2Config {
             diagnostics_topic: "/diagnostics".to_owned(),
             reset_service: "/gfsvo/reset".to_owned(),
             reset_to_pose_topic: "/gfsvo/reset_to_pose".to_owned(),
+            save_map_service: "/gfsvo/save_map".to_owned(),
+            initial_pose_topic: "/initialpose".to_owned(),
             odom_frame: "odom".to_owned(),
             map_frame: "map".to_owned(),
             base_frame: "base_link".to_owned(),
@@ -158,6 +165,8 @@ impl Ros2Config {
             ("diagnostics_topic", &self.diagnostics_topic),
             ("reset_service", &self.reset_service),
             ("reset_to_pose_topic", &self.reset_to_pose_topic),
+            ("save_map_service", &self.save_map_service),
+            ("initial_pose_topic", &self.initial_pose_topic),
         ] {
             if !topic.starts_with('/') || topic.len() < 2 || topic.contains(char::is_whitespace) {
                 return Err(format!(

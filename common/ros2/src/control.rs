@@ -1,6 +1,8 @@
-//! Requests to the run from ROS 2: a reset to a pose (`geometry_msgs/
-//! PoseWithCovarianceStamped`, as rtabmap's `initialpose`) checked and turned into the
-//! camera pose the tracker starts the new map from.
+//! Requests to the run from ROS 2, checked: a reset to a pose (`geometry_msgs/
+//! PoseWithCovarianceStamped`, as rtabmap's `initialpose`) turned into the camera pose
+//! the tracker starts the new map from, and a pose hint in the loaded map (`/initialpose`,
+//! as RViz's "2D Pose Estimate" sends it) turned into the camera pose the tracker
+//! relocalises near.
 
 use crate::msg::PoseWithCovarianceStamped;
 use crate::odom::{OdometryPublisherState, from_pose};
@@ -23,26 +25,55 @@ pub fn reset_pose(
     topic: &str,
     odometry: &OdometryPublisherState,
 ) -> Result<Isometry3<f64>, String> {
+    let (odom_frame, map_frame) = odometry.frames();
+    checked_camera_pose(message, odometry, &["", odom_frame, map_frame])
+        .map_err(|why| refused(message, topic, &why, "reset refused"))
+}
+
+/// The camera pose (`world_from_camera` in the loaded map's frame) of a pose hint for
+/// the base in `message`, received on `topic`.
+///
+/// # Errors
+/// A message naming the topic and the stamp: a value not finite, a quaternion whose
+/// norm is not 1, or a frame other than the map's.
+pub fn hint_pose(
+    message: &PoseWithCovarianceStamped,
+    topic: &str,
+    odometry: &OdometryPublisherState,
+) -> Result<Isometry3<f64>, String> {
+    let (_, map_frame) = odometry.frames();
+    checked_camera_pose(message, odometry, &[map_frame])
+        .map_err(|why| refused(message, topic, &why, "pose hint refused"))
+}
+
+fn refused(message: &PoseWithCovarianceStamped, topic: &str, why: &str, what: &str) -> String {
     let stamp = Stamp::from(message.header.stamp);
-    let refuse = |why: String| format!("{topic} at {stamp}: {why}; reset refused");
+    format!("{topic} at {stamp}: {why}; {what}")
+}
+
+/// The camera pose of the base pose in `message` when it is finite, its quaternion of
+/// unit norm and its frame one of `frames`; otherwise why not.
+fn checked_camera_pose(
+    message: &PoseWithCovarianceStamped,
+    odometry: &OdometryPublisherState,
+    frames: &[&str],
+) -> Result<Isometry3<f64>, String> {
     let pose = &message.pose.pose;
     let (p, q) = (&pose.position, &pose.orientation);
     let values = [p.x, p.y, p.z, q.x, q.y, q.z, q.w];
     if !values.iter().all(|v| v.is_finite()) {
-        return Err(refuse(format!("the pose {values:?} is not finite")));
+        return Err(format!("the pose {values:?} is not finite"));
     }
     let norm = (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w).sqrt();
     if (norm - 1.0).abs() > UNIT_TOLERANCE {
-        return Err(refuse(format!(
+        return Err(format!(
             "the orientation's norm is {norm:.4}, not 1 (a unit quaternion)"
-        )));
+        ));
     }
     let frame = message.header.frame_id.as_str();
-    let (odom_frame, map_frame) = odometry.frames();
-    if !(frame.is_empty() || frame == odom_frame || frame == map_frame) {
-        return Err(refuse(format!(
-            "the pose is in frame {frame:?}, not {odom_frame:?} or {map_frame:?}"
-        )));
+    if !frames.contains(&frame) {
+        let named: Vec<&str> = frames.iter().copied().filter(|f| !f.is_empty()).collect();
+        return Err(format!("the pose is in frame {frame:?}, not {named:?}"));
     }
     Ok(odometry.camera_in_odom(&from_pose(pose)))
 }
@@ -149,6 +180,42 @@ mod tests {
         for frame in ["", "odom", "map"] {
             let ok = message(frame, [0.0; 3], [0.0, 0.0, 0.0, 1.0]);
             assert!(reset_pose(&ok, topic, &odometry).is_ok(), "{frame:?}");
+        }
+    }
+
+    #[test]
+    fn a_pose_hint_is_taken_in_map_only_and_becomes_the_camera_pose_there() {
+        let odometry = OdometryPublisherState::new(&Ros2Config::default());
+        let topic = "/initialpose";
+        let half = std::f64::consts::FRAC_1_SQRT_2;
+        let given = message("map", [1.0, -2.0, 0.0], [0.0, 0.0, half, half]);
+        let camera = hint_pose(&given, topic, &odometry).expect("a pose in map");
+        // The base pose again from the camera pose: what /odom would say in map.
+        let base = odometry.base_in_odom(&camera);
+        let expected = from_pose(&given.pose.pose);
+        let error = (base.translation.vector - expected.translation.vector).norm()
+            + base.rotation.angle_to(&expected.rotation);
+        assert!(error < 1e-12, "the hint is the base pose given ({error})");
+        for (bad, why) in [
+            (message("odom", [0.0; 3], [0.0, 0.0, 0.0, 1.0]), "\"odom\""),
+            (message("", [0.0; 3], [0.0, 0.0, 0.0, 1.0]), "\"\""),
+            (
+                message("map", [0.0, f64::INFINITY, 0.0], [0.0, 0.0, 0.0, 1.0]),
+                "not finite",
+            ),
+            (
+                message("map", [0.0; 3], [0.0, 0.0, 0.5, 0.5]),
+                "norm is 0.7071",
+            ),
+        ] {
+            let e = hint_pose(&bad, topic, &odometry).expect_err(why);
+            assert!(
+                e.contains(topic)
+                    && e.contains("1700000000.123456789")
+                    && e.contains(why)
+                    && e.ends_with("pose hint refused"),
+                "{e}"
+            );
         }
     }
 }

@@ -2,7 +2,8 @@
 //! (`ROS_DOMAIN_ID`; `ROS_LOCALHOST_ONLY=1` or `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`
 //! keep discovery and data on 127.0.0.1), the camera subscriptions with sensor-data QoS
 //! (best effort, so reliable and best-effort publishers both match) of either image
-//! transport, the output publishers (reliable), and the reset service and topic.
+//! transport, the output publishers (reliable), the reset service and topic, the map
+//! saving service and the pose hint topic.
 
 use gfs_ros2::diagnostics::DiagnosticArray;
 use gfs_ros2::imu::ImuTopic;
@@ -83,6 +84,23 @@ pub struct EmptyResponse {
 }
 impl Message for EmptyResponse {}
 
+/// `std_srvs/srv/Trigger` request (empty: one byte, as IDL gives it).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct TriggerRequest {
+    structure_needs_at_least_one_member: u8,
+}
+impl Message for TriggerRequest {}
+
+/// `std_srvs/srv/Trigger` response.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct TriggerResponse {
+    /// Whether it was done.
+    pub success: bool,
+    /// What was done, or why not.
+    pub message: String,
+}
+impl Message for TriggerResponse {}
+
 /// The node's subscriptions and publishers.
 pub struct Endpoints {
     /// Colour images.
@@ -105,6 +123,10 @@ pub struct Endpoints {
     pub reset: Server<EmptyRequest, EmptyResponse>,
     /// Resets to a pose.
     pub reset_to_pose: Subscription<PoseWithCovarianceStamped>,
+    /// The map saving service (`std_srvs/srv/Trigger`).
+    pub save_map: Server<TriggerRequest, TriggerResponse>,
+    /// Pose hints in the loaded map.
+    pub initial_pose: Subscription<PoseWithCovarianceStamped>,
     _node: Node,
 }
 
@@ -258,6 +280,13 @@ pub fn endpoints(config: &Ros2Config) -> Result<Endpoints, DdsError> {
         "PoseWithCovarianceStamped",
         &output,
     )?;
+    let initial_pose_topic = topic(
+        &mut node,
+        &config.initial_pose_topic,
+        "geometry_msgs",
+        "PoseWithCovarianceStamped",
+        &output,
+    )?;
     // Services as rmw_cyclonedds maps them onto DDS (`rq/<name>Request`,
     // `rr/<name>Reply`, the request id in a header of the payload), reliable.
     let reset = node.create_server(
@@ -267,8 +296,17 @@ pub fn endpoints(config: &Ros2Config) -> Result<Endpoints, DdsError> {
         output.clone(),
         output.clone(),
     )?;
+    let save_map = node.create_server(
+        ServiceMapping::Cyclone,
+        &Name::parse(&config.save_map_service)?,
+        &ServiceTypeName::new("std_srvs", "Trigger"),
+        output.clone(),
+        output.clone(),
+    )?;
     Ok(Endpoints {
         reset,
+        save_map,
+        initial_pose: node.create_subscription(&initial_pose_topic, Some(output.clone()))?,
         reset_to_pose: node.create_subscription(&reset_to_pose_topic, Some(output.clone()))?,
         colour,
         depth,

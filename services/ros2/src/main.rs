@@ -5,6 +5,8 @@
 //! restarts it like any stage) or as a systemd service; `--help` lists the arguments.
 
 mod dds;
+mod map_saves;
+mod requests;
 mod stage;
 mod visuals;
 

@@ -1,25 +1,21 @@
 //! The stage loop: DDS messages in, frames out; poses in, ROS 2 messages out; resets
-//! asked for over ROS 2 on to the tracker. It plays the source's role in the run (its
-//! stamps are the source's in `profile.json`).
+//! and pose hints asked for over ROS 2 on to the tracker, map saves to the mapper. It
+//! plays the source's role in the run (its stamps are the source's in `profile.json`).
 
-use crate::dds::{DdsError, EmptyResponse, Endpoints, camera_info_only, endpoints};
+use crate::dds::{DdsError, Endpoints, camera_info_only, endpoints};
+use crate::map_saves::MapSaves;
+use crate::requests::Requests;
 use crate::visuals::Visuals;
-use gfs_core::ids::FrameId;
 use gfs_core::stamp::Stamp;
 use gfs_inertial::{ImuFeed, ImuSample};
-use gfs_ipc::{
-    FrameLayout, IpcRun, MsgHeader, RunId, Stage, TopicPublisher, ipc, monotonic_ns, topics,
-};
-use gfs_pipeline::control::{Control, ControlMessage};
+use gfs_ipc::{FrameLayout, IpcRun, RunId, Stage, ipc, monotonic_ns, topics};
 use gfs_pipeline::service::StageArgs;
 use gfs_pipeline::stages::StageContext;
 use gfs_pipeline::stages::imu::ImuOutbox;
 use gfs_pipeline::stages::ros2_frames::publish_pair;
 use gfs_pipeline::state::RESTARTS;
 use gfs_pipeline::wire::WirePose;
-use gfs_ros2::Ros2Config;
 use gfs_ros2::camera_info::{camera_from_info, cameras_differ};
-use gfs_ros2::control::reset_pose;
 use gfs_ros2::diagnostics::DiagnosticsWindow;
 use gfs_ros2::image::{FrameConverter, Received};
 use gfs_ros2::imu::ImuInput;
@@ -76,6 +72,8 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
         None => None,
     };
     let dds = endpoints(ros2)?;
+    let save_path = ctx.settings.map_files.save_map.clone();
+    let mut map_saves = MapSaves::open(&ctx, &ros2.save_map_service, save_path)?;
     let mut visuals = Visuals::start(&run, ctx.mode(), &config)?;
     let (colour_topic, depth_topic) = ros2.image_topics();
     tracing::info!("subscribed to {colour_topic} and {depth_topic}; next frame {next_id}");
@@ -93,13 +91,15 @@ pub fn run(args: &StageArgs) -> Result<(), DdsError> {
     let mut imu_taken = Vec::new();
     while !ctx.stopping() {
         let mut busy = take_images(&dds, &mut pairer, (&colour_topic, &depth_topic));
-        let to_tracker = Resets {
+        let to_tracker = Requests {
             dds: &dds,
             control: &control,
             odometry: &odometry,
             ros2,
+            localising: ctx.settings.map_files.localize,
         };
         busy |= to_tracker.pass_on(next_id, &mut scratch)?;
+        busy |= map_saves.serve(&dds.save_map)?;
         if take_imu(&dds, &mut imu_input, &mut imu_taken) {
             busy = true;
             feed_imu(&ctx, &imu_input, &mut imu, &mut imu_taken)?;
@@ -296,74 +296,6 @@ pub fn probe_camera(
         }
     }
     Err(format!("no valid CameraInfo within {timeout_s} s: {problem}").into())
-}
-
-/// Where the resets asked for over ROS 2 come from and go to.
-struct Resets<'a> {
-    dds: &'a Endpoints,
-    control: &'a TopicPublisher<ipc::Service, u8>,
-    odometry: &'a OdometryPublisherState,
-    ros2: &'a Ros2Config,
-}
-
-impl Resets<'_> {
-    /// Sends the resets asked for since the last call to the tracker (which applies
-    /// them before the next frame it can, `next_frame` or later) and answers the service
-    /// calls; true when any came. A bad pose is refused with a warning.
-    fn pass_on(&self, next_frame: u64, scratch: &mut Vec<u8>) -> Result<bool, DdsError> {
-        let mut any = false;
-        loop {
-            match self.dds.reset.receive_request() {
-                Ok(Some((id, _))) => {
-                    any = true;
-                    self.send(Control::Reset, next_frame, scratch)?;
-                    tracing::info!("{}: a new map from the next frame", self.ros2.reset_service);
-                    if let Err(e) = self.dds.reset.send_response(id, EmptyResponse::default()) {
-                        tracing::warn!(
-                            "{}: the reply was not sent: {e:?}",
-                            self.ros2.reset_service
-                        );
-                    }
-                }
-                Ok(None) => break,
-                Err(e) => {
-                    tracing::warn!("{}: undecodable request: {e:?}", self.ros2.reset_service);
-                    break;
-                }
-            }
-        }
-        let topic = &self.ros2.reset_to_pose_topic;
-        loop {
-            match self.dds.reset_to_pose.take() {
-                Ok(Some((message, _))) => {
-                    any = true;
-                    match reset_pose(&message, topic, self.odometry) {
-                        Ok(pose) => {
-                            self.send(Control::ResetToPose(pose), next_frame, scratch)?;
-                            tracing::info!("{topic}: a new map from the next frame, at {pose}");
-                        }
-                        Err(e) => tracing::warn!("{e}"),
-                    }
-                }
-                Ok(None) => break,
-                Err(e) => {
-                    tracing::warn!("{topic}: undecodable message: {e:?}");
-                    break;
-                }
-            }
-        }
-        Ok(any)
-    }
-
-    fn send(&self, control: Control, frame: u64, scratch: &mut Vec<u8>) -> Result<(), DdsError> {
-        let message = ControlMessage {
-            seq: monotonic_ns(),
-            control,
-        };
-        let header = MsgHeader::new(FrameId(frame), Stamp::now());
-        self.control.publish_encoded(&header, &message, scratch)?;
-        Ok(())
-    }
 }
 
 /// Moves the images that arrived into the pairer; true when any did.

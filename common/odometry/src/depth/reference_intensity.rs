@@ -31,6 +31,10 @@ pub struct ReferenceIntensity {
     sums: Vec<f32>,
     /// Views of each cell, the keyframe's own included.
     views: Vec<u16>,
+    /// `(cell, where its pixel's ray meets the keyframe's surface)` of each cell that
+    /// has one, in the keyframe's camera frame: fixed by the keyframe's depth, so found
+    /// once per keyframe rather than for every frame added.
+    surfaces: Vec<(usize, Point3<f64>)>,
     /// `(cell, the frame's intensity there)` of the frame being added (reused).
     seen: Vec<(usize, f32)>,
 }
@@ -69,36 +73,29 @@ impl ReferenceIntensity {
             self.sums.resize(width * height, 0.0);
             self.views.clear();
             self.views.resize(width * height, 1);
+            self.find_surfaces(camera, reference, s, width, height);
         }
         let frame_from_reference = frame_from_world * reference_from_world.inverse();
-        let centre = (s as f64 - 1.0) / 2.0;
         let (mut cross, mut square) = (0.0f64, 0.0f64);
         self.seen.clear();
-        for j in 0..height {
-            for i in 0..width {
-                let (u, v) = ((i * s) as f64 + centre, (j * s) as f64 + centre);
-                let Some(in_reference) = surface_point(reference, camera, u, v) else {
-                    continue;
-                };
-                let in_frame = frame_from_reference * in_reference;
-                let Some(uv) = camera.project(&in_frame) else {
-                    continue;
-                };
-                let Some(value) = image.intensity(uv.x, uv.y) else {
-                    continue;
-                };
-                if frame
-                    .at_pixel(uv.x, uv.y)
-                    .is_none_or(|(q, _)| (q.z - in_frame.z).abs() > occlusion_m)
-                {
-                    continue;
-                }
-                let k = j * width + i;
-                let own = f64::from(self.own[k]);
-                cross += value * own;
-                square += value * value;
-                self.seen.push((k, value as f32));
+        for &(k, in_reference) in &self.surfaces {
+            let in_frame = frame_from_reference * in_reference;
+            let Some(uv) = camera.project(&in_frame) else {
+                continue;
+            };
+            let Some(value) = image.intensity(uv.x, uv.y) else {
+                continue;
+            };
+            if frame
+                .at_pixel(uv.x, uv.y)
+                .is_none_or(|(q, _)| (q.z - in_frame.z).abs() > occlusion_m)
+            {
+                continue;
             }
+            let own = f64::from(self.own[k]);
+            cross += value * own;
+            square += value * value;
+            self.seen.push((k, value as f32));
         }
         if square <= 0.0 || cross <= 0.0 {
             return;
@@ -114,6 +111,28 @@ impl ReferenceIntensity {
             reference.intensity[k] = (self.own[k] + self.sums[k]) / f32::from(self.views[k]);
         }
         reference.coarsen_intensity();
+    }
+
+    /// Fills `surfaces` with the cells of `reference` (`width x height` cells of
+    /// `stride` pixels) whose centre's ray meets its surface, row by row.
+    fn find_surfaces(
+        &mut self,
+        camera: &PinholeCamera,
+        reference: &DepthGrid,
+        stride: usize,
+        width: usize,
+        height: usize,
+    ) {
+        let centre = (stride as f64 - 1.0) / 2.0;
+        self.surfaces.clear();
+        for j in 0..height {
+            for i in 0..width {
+                let (u, v) = ((i * stride) as f64 + centre, (j * stride) as f64 + centre);
+                if let Some(in_reference) = surface_point(reference, camera, u, v) {
+                    self.surfaces.push((j * width + i, in_reference));
+                }
+            }
+        }
     }
 }
 

@@ -22,7 +22,7 @@ use gfs_core::le_bytes::LeReader;
 
 const MAGIC: &[u8; 8] = b"GFSVOMAP";
 /// The layout [`super::save_map`] writes and [`super::load_map`] reads.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 /// Bytes of the header.
 pub const HEADER_BYTES: usize = 8 + 4 + 2 * 4 + 4 * 8 + 8 + 4 + 8 + 4 + 4;
 

@@ -18,6 +18,7 @@
 //! it is used.
 
 mod header;
+mod payload;
 #[cfg(test)]
 mod tests;
 
@@ -34,7 +35,7 @@ use std::path::{Path, PathBuf};
 /// Largest payload read (1 GiB: a map of 3000 real keyframes is about 270 MB).
 pub const MAX_PAYLOAD_BYTES: usize = 1 << 30;
 
-/// Fixed-width integers, little-endian, bounded allocations.
+/// Fixed-width integers, little-endian, bounded allocations (the payload's blobs).
 fn codec() -> impl bincode::config::Config {
     bincode::config::standard()
         .with_fixed_int_encoding()
@@ -89,13 +90,6 @@ pub struct SavedMap {
     pub map: Map,
     /// The world Manhattan axes the map's lines and planes are tied to.
     pub manhattan: WorldManhattan,
-}
-
-/// [`SavedMap`] borrowed, encoded to the same bytes.
-#[derive(Serialize)]
-struct SavedMapRef<'a> {
-    map: &'a Map,
-    manhattan: &'a WorldManhattan,
 }
 
 /// What is wrong with a map file's bytes or with writing one.
@@ -184,7 +178,8 @@ fn encode(
     map: &Map,
     manhattan: &WorldManhattan,
 ) -> Result<(Header, Vec<u8>), MapFileProblem> {
-    let payload = bincode::serde::encode_to_vec(SavedMapRef { map, manhattan }, codec())?;
+    let mut payload = Vec::new();
+    payload::write_payload(&mut payload, map, manhattan)?;
     let header = Header {
         camera: *camera,
         payload_len: payload.len() as u64,
@@ -229,7 +224,7 @@ fn write_file(
         crc: crc32fast::Hasher::new(),
         len: 0,
     };
-    bincode::serde::encode_into_std_write(SavedMapRef { map, manhattan }, &mut payload, codec())?;
+    payload::write_payload(&mut payload, map, manhattan)?;
     let header = Header {
         camera: *camera,
         payload_len: payload.len,
@@ -278,13 +273,8 @@ fn decode(bytes: &[u8], camera: &MapCamera) -> Result<SavedMap, MapFileProblem> 
             computed,
         });
     }
-    let (saved, used): (SavedMap, usize) = bincode::serde::decode_from_slice(payload, codec())?;
-    if used != payload.len() {
-        return Err(MapFileProblem::Invalid(format!(
-            "the map ends after {used} of the payload's {} bytes",
-            payload.len()
-        )));
-    }
+    let (map, manhattan) = payload::read_payload(payload)?;
+    let saved = SavedMap { map, manhattan };
     saved
         .map
         .validate(camera.levels)

@@ -66,6 +66,12 @@ fn a_saved_map_loads_back_equal() {
     assert_eq!(loaded.map.line_count(), map.line_count());
     assert_eq!(loaded.map.covisible(KeyFrameId(3), 1).len(), 3);
     assert_eq!(loaded.map.next_keyframe_id(), map.next_keyframe_id());
+    // Every field comes back: the map encodes as the messages encode it (serde) to the
+    // same bytes as the map that was saved.
+    let mut canonical = map.clone();
+    canonical.canonicalise();
+    let wire = |m: &Map| bincode::serde::encode_to_vec(m, codec()).expect("encoded");
+    assert_eq!(wire(&loaded.map), wire(&canonical));
     // Saved again, the same bytes: nothing is lost or reordered on the way.
     let again = dir.join("again.gfsmap");
     assert_eq!(saved(&again, &loaded.map), bytes);
@@ -121,6 +127,18 @@ fn truncated_flipped_future_and_foreign_files_are_refused_naming_the_file() {
         "{text}"
     );
 
+    // A file of the layout before this one.
+    let mut old = good.clone();
+    old[8..12].copy_from_slice(&(FORMAT_VERSION - 1).to_le_bytes());
+    let text = refusal(&bad, &old, &camera);
+    assert!(
+        text.contains(&format!(
+            "version {}, this build reads version {FORMAT_VERSION}",
+            FORMAT_VERSION - 1
+        )),
+        "{text}"
+    );
+
     let mut other = camera;
     other.camera.fx += 1.0;
     let text = refusal(&bad, &good, &other);
@@ -142,18 +160,31 @@ fn an_intact_file_of_an_inconsistent_map_is_refused() {
     let dir = temp_dir("inconsistent");
     let path = dir.join("map.gfsmap");
     let camera = run_camera();
-    let mut broken = sample_map(2, 100, 0);
-    // A keyframe link to a point that does not list it (checksums hold: the file is
-    // as written, the map in it is not consistent).
-    let kf = broken.keyframe_ids()[1];
-    let slots = &mut broken.keyframe_mut(kf).expect("kf").point_ids;
-    slots.swap(0, 1);
-    save_map(&path, &camera, &broken, &WorldManhattan::default()).expect("saved");
-    let text = load_map(&path, &camera).expect_err("refused").to_string();
-    assert!(
-        text.contains("invalid map") && text.contains("keyframe 1"),
-        "{text}"
-    );
+    // A point that says a feature of keyframe 1 sees it which does not exist, and one
+    // that lists another point's feature: the keyframes' slots are linked from the
+    // observations on reading, and neither can be.
+    let map = sample_map(2, 100, 0);
+    let kf = map.keyframe_ids()[1];
+    let mut ids = map.point_ids().collect::<Vec<_>>();
+    ids.sort_unstable();
+    let mut beyond = map.clone();
+    let point = beyond.point_mut(ids[0]).expect("point");
+    point.observations.push((kf, 100_000));
+    let mut twice = map.clone();
+    let taken = twice.point(ids[1]).expect("point").observations[1];
+    twice
+        .point_mut(ids[0])
+        .expect("point")
+        .observations
+        .push(taken);
+    for broken in [beyond, twice] {
+        save_map(&path, &camera, &broken, &WorldManhattan::default()).expect("saved");
+        let text = load_map(&path, &camera).expect_err("refused").to_string();
+        assert!(
+            text.contains("invalid map") && text.contains("keyframe 1, which does not exist"),
+            "{text}"
+        );
+    }
 
     let mut nan = sample_map(1, 50, 0);
     let id = nan.point_ids().next().expect("a point");

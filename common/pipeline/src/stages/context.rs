@@ -75,7 +75,9 @@ pub struct StageSettings {
     pub state_dir: Option<PathBuf>,
     /// The dataset folder the source plays.
     pub dataset: PathBuf,
-    /// Play only the first N frames.
+    /// The dataset's frame the source plays first, as the run's frame 0.
+    pub start: usize,
+    /// Play only N frames (from `start`).
     pub frames: Option<usize>,
     /// Realtime: play at this rate (frames per second) instead of the capture times.
     pub max_rate: Option<f64>,

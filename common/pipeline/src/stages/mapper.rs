@@ -222,6 +222,7 @@ impl<S: Service> SavePorts<S> {
                 id: request.id,
                 path: request.path,
                 result,
+                keyframes: session.map().keyframe_count(),
             };
             match encode_message(&reply, &mut bytes) {
                 Ok(_) => {

@@ -1,7 +1,9 @@
 //! `source`: decodes the dataset's frames (undistorted gray and depth in metres) and
 //! publishes each once for every other stage to read in place. Lockstep: frame k+1 only
-//! after the pose of frame k. Realtime: at the capture rate (or `max_rate`). A ROS 2 bag
-//! in place of the folder is played by [`super::bag_source`].
+//! after the pose of frame k. Realtime: at the capture rate (or `max_rate`). The run's
+//! frame 0 is the dataset's frame `start` (a run started part-way in, as localising in
+//! a map made from the whole folder does). A ROS 2 bag in place of the folder is played
+//! by [`super::bag_source`].
 
 use super::context::{POLL, StageContext, StageError};
 use super::imu::{ImuOutbox, say_skipped_lines};
@@ -16,7 +18,7 @@ use gfs_ipc::{
 };
 use std::time::{Duration, Instant};
 
-/// The checkpoint: the index of the next frame to publish.
+/// The checkpoint: the run's index of the next frame to publish.
 const CHECKPOINT: &str = "source.bin";
 
 /// Runs the source until told to stop. After the last frame it stays up, idle, so that
@@ -32,10 +34,9 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     let dataset = &ctx.settings.dataset;
     let sequence = Sequence::open(dataset, &camera, &ctx.config().depth)
         .map_err(|e| StageError::Dataset(e.to_string()))?;
-    let total = ctx
-        .settings
-        .frames
-        .map_or(sequence.len(), |n| n.min(sequence.len()));
+    let first = ctx.settings.start;
+    let remaining = sequence.len().saturating_sub(first);
+    let total = ctx.settings.frames.map_or(remaining, |n| n.min(remaining));
     let (width, height) = (camera.pinhole.width, camera.pinhole.height);
     let layout = FrameLayout::new(width, height, false).map_err(|e| StageError::Setup {
         stage: "source",
@@ -53,8 +54,8 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         Image::<u8>::new(width, height),
         Image::<f32>::new(width, height),
     );
-    let mut imu = open_imu(ctx, &sequence, start)?;
-    let mut reader = sequence.frames_from(start, Some(total), DEFAULT_READ_AHEAD);
+    let mut imu = open_imu(ctx, &sequence, first, start)?;
+    let mut reader = sequence.frames_from(first + start, Some(first + total), DEFAULT_READ_AHEAD);
     if ctx.mode() == Mode::Realtime && start == 0 {
         await_stages(ctx, &publisher, &poses)?;
     }
@@ -69,7 +70,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
             Ok(frame) => frame.timestamp,
             Err(_) => sequence
                 .timestamps()
-                .get(index)
+                .get(first + index)
                 .copied()
                 .unwrap_or_default(),
         };
@@ -87,7 +88,10 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
                 rgb: None,
             },
             Err(e) => {
-                tracing::warn!("source: frame {index}: {e}; publishing a blank frame");
+                tracing::warn!(
+                    "source: frame {index} (the dataset's {}): {e}; publishing a blank frame",
+                    first + index
+                );
                 FrameImages {
                     gray: blank.0.view(),
                     depth: blank.1.view(),
@@ -143,11 +147,13 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
     Ok(())
 }
 
-/// The folder's `imu.txt` on the `imu` topic, `None` without one; resuming at frame
-/// `start`, the samples of the frames before it are passed.
+/// The folder's `imu.txt` on the `imu` topic, `None` without one; resuming at the run's
+/// frame `start` (the dataset's `first + start`), the samples of the frames before it
+/// are passed.
 fn open_imu<S: Service>(
     ctx: &StageContext<S>,
     sequence: &Sequence,
+    first: usize,
     start: usize,
 ) -> Result<Option<ImuOutbox<S>>, StageError> {
     let dataset = &ctx.settings.dataset;
@@ -162,7 +168,7 @@ fn open_imu<S: Service>(
     }
     if let Some(&before) = start
         .checked_sub(1)
-        .and_then(|i| sequence.timestamps().get(i))
+        .and_then(|i| sequence.timestamps().get(first + i))
     {
         imu.prepare(start as u64 - 1, before);
     }

@@ -7,7 +7,8 @@
 //! answer comes frames later and tracking goes on from the frame it found. On a loaded
 //! map (`--load-map`) it starts on the map's neighbourhood as the inline odometry does,
 //! unless its checkpoint says where it was. A reset on the `control` topic starts a new
-//! map at the next frame that can be.
+//! map at the next frame that can be; a pose hint there, while localising, places the
+//! next frame in the loaded map near it.
 
 use super::context::{POLL, StageContext, StageError, mark_ready};
 use super::imu::ImuInbox;
@@ -23,9 +24,10 @@ use gfs_ipc::{
     decode_message, encode_message, topics,
 };
 use gfs_odometry::session::{
-    MapRequest, MapUpdate, ResetError, TrackingCheckpoint, TrackingSession,
+    LoadedMapUse, MapRequest, MapUpdate, ResetError, TrackingCheckpoint, TrackingSession,
 };
 use gfs_odometry::{FrameSurfaces, TrackingStatus};
+use nalgebra::Isometry3;
 use std::time::Instant;
 
 /// The checkpoint: motion model, reference keyframe, counters ([`TrackingCheckpoint`]).
@@ -136,7 +138,7 @@ pub fn run<S: Service>(ctx: &StageContext<S>) -> Result<(), StageError> {
         };
         take_controls(&ports.control, &ledger, &mut reset)?;
         if let Some(message) = reset
-            && apply_reset(&mut session, &message, header.frame_id)
+            && apply_control(ctx, &mut session, &message, header.frame_id)?
         {
             ledger.applied(&state, &message, &mut scratch)?;
             reset = None;
@@ -234,14 +236,23 @@ fn take_controls<S: Service>(
     Ok(())
 }
 
-/// Starts a new map as `message` asks, before frame `frame`; false when it must wait
-/// for the answer to a map request.
-fn apply_reset(session: &mut TrackingSession, message: &ControlMessage, frame: u64) -> bool {
+/// Does what `message` asks before frame `frame`; false when it must wait for the
+/// answer to a map request.
+///
+/// # Errors
+/// [`StageError`] when the map camera cannot be made from the config.
+fn apply_control<S: Service>(
+    ctx: &StageContext<S>,
+    session: &mut TrackingSession,
+    message: &ControlMessage,
+    frame: u64,
+) -> Result<bool, StageError> {
     let pose = match message.control {
         Control::Reset => None,
         Control::ResetToPose(pose) => Some(pose),
+        Control::RelocaliseNear(pose) => return relocalise_near(ctx, session, &pose, frame),
     };
-    match session.start_new_map(pose) {
+    Ok(match session.start_new_map(pose) {
         Ok(()) => {
             tracing::info!(frame, ?message.control, "tracker: reset: a new map starts");
             true
@@ -251,7 +262,44 @@ fn apply_reset(session: &mut TrackingSession, message: &ControlMessage, frame: u
             tracing::warn!(frame, "tracker: reset refused: {e}");
             true
         }
+    })
+}
+
+/// Localising (`--load-map --localize`): places the tracker in the loaded map near
+/// `world_from_camera` as `--initial-pose` does at the start (the map is fixed, so the
+/// file is the map the mapper holds); false while a map request is pending, whose
+/// answer would replace the map placed here. Not localising, the hint is refused with
+/// a warning: there is no other map to be placed in.
+///
+/// # Errors
+/// [`StageError`] when the map camera cannot be made from the config.
+fn relocalise_near<S: Service>(
+    ctx: &StageContext<S>,
+    session: &mut TrackingSession,
+    world_from_camera: &Isometry3<f64>,
+    frame: u64,
+) -> Result<bool, StageError> {
+    let files = &ctx.settings.map_files;
+    if !files.localize {
+        tracing::warn!(frame, "tracker: a pose hint while not localising; ignored");
+        return Ok(true);
     }
+    if session.pending_request().is_some() {
+        return Ok(false);
+    }
+    match files.load(&ctx.config().map_camera()?) {
+        Ok(Some(saved)) => {
+            let use_ = LoadedMapUse {
+                localise: true,
+                initial_pose: Some(*world_from_camera),
+            };
+            session.start_on_saved(saved, &use_);
+            tracing::info!(frame, "tracker: relocalising near the pose hint");
+        }
+        Ok(None) => tracing::warn!(frame, "tracker: a pose hint without a map; ignored"),
+        Err(e) => tracing::warn!(frame, "tracker: pose hint ignored: {e}"),
+    }
+    Ok(true)
 }
 
 /// Restores a killed tracker's state; returns the next frame to track.

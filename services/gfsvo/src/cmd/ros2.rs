@@ -127,6 +127,7 @@ pub fn run(args: &Ros2Args, log: &str) -> CliResult {
             mode: Mode::Realtime,
             state_dir: Some(state_dir.clone()),
             dataset: args.out.clone(),
+            start: 0,
             frames: None,
             max_rate: None,
             config: config.clone(),

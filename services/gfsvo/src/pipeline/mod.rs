@@ -336,6 +336,9 @@ fn stage_args(options: &PipelineOptions) -> Vec<OsString> {
     if let Some(dir) = &s.state_dir {
         args.push(flag("state-dir", dir.as_os_str()));
     }
+    if s.start > 0 {
+        args.push(flag("start", s.start.to_string().as_ref()));
+    }
     if let Some(n) = s.frames {
         args.push(flag("frames", n.to_string().as_ref()));
     }

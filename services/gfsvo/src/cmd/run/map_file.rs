@@ -4,7 +4,6 @@
 //! into a dataset (`--start`). Inline, the odometry here loads and saves; in the
 //! pipeline modes the mapper and tracker stages do ([`gfs_pipeline::map_files`]).
 
-use super::RunMode;
 use crate::CliResult;
 use gfs_odometry::Odometry;
 use gfs_odometry::map_file::MapCamera;
@@ -16,19 +15,20 @@ pub struct MapArgs {
     /// The map files.
     #[command(flatten)]
     pub files: MapFiles,
-    /// Start at frame N of the dataset (it keeps its number; --frames counts from it).
+    /// Start at frame N of the dataset (--frames counts from it). Inline the frames keep
+    /// their numbers (status.txt); in the pipeline modes frame N is the run's frame 0.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub start: usize,
 }
 
 impl MapArgs {
-    /// Rejects `--start` outside inline mode and beyond the dataset's `frames`.
+    /// Rejects `--start` for a bag (`bag`) and beyond the dataset's `frames`.
     ///
     /// # Errors
     /// Naming the switch.
-    pub fn check(&self, mode: RunMode, frames: usize) -> CliResult {
-        if mode != RunMode::Inline && self.start > 0 {
-            return Err("--start runs with --mode inline only (for now)".into());
+    pub fn check(&self, bag: bool, frames: usize) -> CliResult {
+        if bag && self.start > 0 {
+            return Err("--start plays dataset folders, not bags".into());
         }
         if self.start >= frames {
             return Err(format!(

@@ -9,6 +9,7 @@ pub mod checks;
 mod inline;
 pub mod map_file;
 mod map_png;
+mod outcome_json;
 
 use super::frame_visuals::FrameVisuals;
 use crate::CliResult;
@@ -131,7 +132,8 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         Some(gt) => Some(Trajectory::read_tum(&gt)?),
         None => None,
     };
-    args.map.check(args.mode, source.timestamps.len())?;
+    args.map
+        .check(sequence.is_none(), source.timestamps.len())?;
     let remaining = source.timestamps.len() - args.map.start;
     let total = args.frames.map_or(remaining, |n| n.min(remaining));
     let timestamps = &source.timestamps[args.map.start..args.map.start + total];
@@ -206,6 +208,7 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
                 },
                 state_dir: Some(state_dir),
                 dataset: dataset.clone(),
+                start: args.map.start,
                 frames: args.frames,
                 max_rate: args.max_rate,
                 config: config.clone(),
@@ -343,54 +346,25 @@ pub fn run(args: &RunArgs, log: &str) -> CliResult {
         *counts.entry(pose.status.as_str()).or_default() += 1;
     }
     if args.json {
-        let mut object = serde_json::json!({
-            "dataset": dataset.display().to_string(),
-            "mode": format!("{:?}", args.mode).to_lowercase(),
-            "frames": poses.len(),
-            "status": counts,
-            "keyframes": keyframes,
-            "wall_s": wall_s,
-            "processed": processed,
-            "processed_per_s": processed as f64 / wall_s.max(1e-9),
-        });
-        match &timings {
-            Timings::Inline(t) => object["timings_ms"] = serde_json::to_value(t)?,
-            Timings::Pipeline(p) => object["profile"] = serde_json::to_value(p)?,
-        }
-        if let Some(r) = &restarts {
-            object["restarts"] = serde_json::to_value(r)?;
-        }
-        if let Some(e) = &evaluation {
-            object["ate_rmse_m"] = e.ate.stats.rmse.into();
-            object["ate_max_m"] = e.ate.stats.max.into();
-            object["matched"] = e.matched().into();
-        }
-        if let Some(found) = &loops {
-            object["loops"] = serde_json::to_value(found)?;
-        }
-        if let Some(serde_json::Value::Object(counts)) = map_counts {
-            for (key, value) in counts {
-                object[key.as_str()] = value;
-            }
-        }
-        if let Some(c) = &consistency {
-            object["nees"] = super::eval::consistency_json(c);
-        }
-        if !tracking_blocks.is_empty() {
-            let medians: Vec<f64> = tracking_blocks.iter().map(|s| s.median).collect();
-            object["tracking_median_ms_per_block"] = medians.into();
-            object["block_frames"] = inline::BLOCK_FRAMES.into();
-        }
-        if let Some(e) = &odometry_evaluation {
-            object["odometry_ate_rmse_m"] = e.ate.stats.rmse.into();
-        }
-        if let Some((keyframes, bytes)) = tracker_map {
-            object["tracker_map_keyframes"] = keyframes.into();
-            if let Some(bytes) = bytes {
-                object["map_bytes"] = serde_json::to_value(bytes)?;
-            }
-        }
-        println!("{object}");
+        let outcome = outcome_json::RunOutcome {
+            dataset: &dataset,
+            mode: args.mode,
+            frames: poses.len(),
+            counts: &counts,
+            keyframes,
+            wall_s,
+            processed,
+            timings: &timings,
+            restarts: restarts.as_ref(),
+            evaluation: evaluation.as_ref(),
+            loops: loops.as_deref(),
+            map_counts,
+            consistency: consistency.as_ref(),
+            tracking_blocks: &tracking_blocks,
+            odometry_evaluation: odometry_evaluation.as_ref(),
+            tracker_map,
+        };
+        println!("{}", outcome.to_json()?);
     } else {
         print_report(&dataset, &args.out, poses.len(), &counts, &timings);
         println!(
