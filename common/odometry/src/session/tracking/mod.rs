@@ -297,6 +297,7 @@ impl TrackingSession {
             frame_planes = frame.features.planes.len(),
             keyframe = wants_keyframe,
             keyframes = self.map.keyframe_count(),
+            reference = ?self.tracker.reference(),
             "tracked"
         );
         let mut pose = FramePose::of(&frame);
