@@ -1,13 +1,17 @@
 //! Least-squares rigid alignment of corresponding 3D points (Kabsch / Umeyama without
 //! scale): the `T` minimising `sum |dst_i - T src_i|^2`.
 
-use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix3, Point3, Translation3, Vector3};
 
 /// The rigid transform `T` (rotation + translation, no scale) that best maps `src` onto
 /// `dst` in the least-squares sense. `None` with fewer than 3 pairs, mismatched lengths,
 /// or a degenerate (collinear) configuration.
 pub fn rigid_transform(src: &[Point3<f64>], dst: &[Point3<f64>]) -> Option<Isometry3<f64>> {
     if src.len() != dst.len() || src.len() < 3 {
+        return None;
+    }
+    let finite = |p: &Point3<f64>| p.coords.iter().all(|v| v.is_finite());
+    if !src.iter().chain(dst).all(finite) {
         return None;
     }
     let n = src.len() as f64;
@@ -30,7 +34,7 @@ pub fn rigid_transform(src: &[Point3<f64>], dst: &[Point3<f64>]) -> Option<Isome
         s[(2, 2)] = -1.0;
     }
     let rotation = u * s * v_t;
-    let rotation = UnitQuaternion::from_matrix(&rotation);
+    let rotation = crate::se3::rotation_from_matrix(&rotation);
     let translation = dst_mean - rotation * src_mean;
     Some(Isometry3::from_parts(
         Translation3::from(translation),
@@ -40,7 +44,18 @@ pub fn rigid_transform(src: &[Point3<f64>], dst: &[Point3<f64>]) -> Option<Isome
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_point_with_a_nan_gives_no_transform() {
+        let src: Vec<_> = (0..5)
+            .map(|i| Point3::new(i as f64, (i * i) as f64, 1.0))
+            .collect();
+        let mut dst = src.clone();
+        dst[3].y = f64::NAN;
+        assert!(rigid_transform(&src, &dst).is_none());
+    }
+
     use super::*;
+    use nalgebra::UnitQuaternion;
 
     #[test]
     fn recovers_a_known_transform() {

@@ -88,12 +88,64 @@ pub fn rotation_angle(t: &Isometry3<f64>) -> f64 {
 }
 
 /// Rotation from a 3x3 matrix that may be slightly off SO(3) (projected onto it).
+///
+/// nalgebra's `from_matrix` iterates from the identity until convergence, which never
+/// comes for a rotation by half a turn (the iteration's step vanishes there: a RANSAC
+/// hypothesis turned the tracker into an endless loop) nor for a matrix holding a NaN.
+/// So the iteration is bounded, and when it has not settled it starts again from the
+/// matrix's own quaternion, next to the answer. A matrix that is not finite gives the
+/// identity.
 pub fn rotation_from_matrix(m: &Matrix3<f64>) -> UnitQuaternion<f64> {
-    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(m))
+    if !m.iter().all(|v| v.is_finite()) {
+        return UnitQuaternion::identity();
+    }
+    let project = |guess| Rotation3::from_matrix_eps(m, f64::EPSILON, PROJECTION_ITERATIONS, guess);
+    let from_identity = project(Rotation3::identity());
+    let settled = Rotation3::from_matrix_eps(m, f64::EPSILON, 1, from_identity) == from_identity;
+    if settled {
+        return UnitQuaternion::from_rotation_matrix(&from_identity);
+    }
+    let near = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*m));
+    UnitQuaternion::from_rotation_matrix(&project(near.to_rotation_matrix()))
 }
+
+/// Bound on the iterations projecting a matrix onto SO(3); a matrix within rounding of
+/// a rotation, from a start not half a turn away, settles in a handful.
+pub const PROJECTION_ITERATIONS: usize = 100;
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_half_turn_is_found_where_the_iteration_from_the_identity_never_settles() {
+        // A RANSAC hypothesis of a synthetic low-texture walk: half a turn about an
+        // axis in the x-y plane, det 1 to rounding.
+        let m = Matrix3::new(
+            -0.7742626708187337,
+            -0.6328643745516427,
+            0.0,
+            -0.6328643745516422,
+            0.7742626708187337,
+            0.0,
+            0.0,
+            -0.0,
+            -1.0,
+        );
+        let r = rotation_from_matrix(&m).to_rotation_matrix().into_inner();
+        assert!((r - m).norm() < 1e-12, "{}", (r - m).norm());
+    }
+
+    #[test]
+    fn a_matrix_off_so3_is_projected_and_one_with_a_nan_gives_the_identity() {
+        let truth = UnitQuaternion::from_euler_angles(0.3, -1.2, 2.9);
+        let m = truth.to_rotation_matrix().into_inner() * 1.001 + Matrix3::repeat(1e-4);
+        let r = rotation_from_matrix(&m);
+        assert!(r.angle_to(&truth) < 1e-3, "{}", r.angle_to(&truth));
+        let mut bad = truth.to_rotation_matrix().into_inner();
+        bad[(1, 2)] = f64::NAN;
+        assert_eq!(rotation_from_matrix(&bad), UnitQuaternion::identity());
+        bad[(1, 2)] = f64::INFINITY;
+        assert_eq!(rotation_from_matrix(&bad), UnitQuaternion::identity());
+    }
     use super::*;
 
     fn sample() -> Vec<Vector6<f64>> {

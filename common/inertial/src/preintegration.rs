@@ -257,7 +257,7 @@ impl Preintegrated {
 
 /// The rotation nearest to `m` (rounding accumulates over hundreds of products).
 pub(crate) fn orthonormalised(m: &Matrix3<f64>) -> Matrix3<f64> {
-    UnitQuaternion::from_matrix(m)
+    gfs_core::se3::rotation_from_matrix(m)
         .to_rotation_matrix()
         .into_inner()
 }

@@ -175,7 +175,7 @@ mod tests {
             let camera = |s: &State| {
                 Isometry3::from_parts(
                     Translation3::from(s.position),
-                    UnitQuaternion::from_matrix(&s.rotation),
+                    gfs_core::se3::rotation_from_matrix(&s.rotation),
                 ) * extrinsic.inverse()
             };
             let error = camera(&truth).inverse() * camera(&predicted);

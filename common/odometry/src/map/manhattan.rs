@@ -67,7 +67,7 @@ impl WorldManhattan {
                 }
             }
         }
-        *axes = Rotation3::from_matrix(&m);
+        *axes = gfs_core::se3::rotation_from_matrix(&m).to_rotation_matrix();
     }
 
     /// The axis (0, 1, 2) that `direction` (world) is parallel to within `max_angle`

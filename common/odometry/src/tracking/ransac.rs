@@ -27,7 +27,8 @@ impl Correspondence {
     /// The pair of keypoint `kp` and a map point at `in_world`; `None` when the
     /// keypoint has no depth.
     pub fn new(camera: &PinholeCamera, kp: &KeyPoint, in_world: Point3<f64>) -> Option<Self> {
-        if kp.depth <= 0.0 {
+        let finite = kp.depth.is_finite() && in_world.coords.iter().all(|v| v.is_finite());
+        if !finite || kp.depth <= 0.0 {
             return None;
         }
         let (u, v) = (f64::from(kp.u), f64::from(kp.v));

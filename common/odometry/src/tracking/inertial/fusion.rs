@@ -10,7 +10,7 @@
 use gfs_core::se3;
 use gfs_inertial::preintegration::Preintegrated;
 use gfs_inertial::residual::{InertialResidual, State, information, log_so3};
-use nalgebra::{Isometry3, Matrix6, SMatrix, SVector, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix6, SMatrix, SVector, Translation3, Vector3};
 use std::ops::AddAssign;
 
 /// 15x15 over a state's `(dphi, dp, dv, dbg, dba)`.
@@ -58,7 +58,7 @@ pub struct StepOutput {
 pub fn camera_from_world(state: &State, camera_from_imu: &Isometry3<f64>) -> Isometry3<f64> {
     let world_from_imu = Isometry3::from_parts(
         Translation3::from(state.position),
-        UnitQuaternion::from_matrix(&state.rotation),
+        gfs_core::se3::rotation_from_matrix(&state.rotation),
     );
     camera_from_imu * world_from_imu.inverse()
 }

@@ -166,7 +166,7 @@ impl InertialTracker {
             }
             None => {
                 let world_from_camera = last.camera_from_world.inverse();
-                let imu_turn = nalgebra::UnitQuaternion::from_matrix(&pre.delta_rotation(&bias));
+                let imu_turn = gfs_core::se3::rotation_from_matrix(&pre.delta_rotation(&bias));
                 let imu = self.camera_from_imu.rotation;
                 let rotation = world_from_camera.rotation * imu * imu_turn * imu.inverse();
                 let centre = motion.map_or(world_from_camera.translation.vector, |m| {
