@@ -33,6 +33,50 @@ impl<'a> DepthBlock<'a> {
             huber: Huber::from_chi2(config.depth_chi2),
         }
     }
+
+    /// The inliers' pairs added to `normal`; with `tiles`, each pair's score (its share
+    /// of the gradient, the tilt's average taken out) also goes to its pixel's tile, and
+    /// a pair that does not project is left out.
+    fn add_pairs(
+        &self,
+        pose: &Isometry3<f64>,
+        inliers: &[bool],
+        robust: bool,
+        normal: &mut Normal,
+        mut tiles: Option<&mut TileScores>,
+    ) {
+        for obs in flagged(self.observations, inliers) {
+            let uv = if tiles.is_some() {
+                let Some(uv) = self.camera.project(&Point3::from(obs.point_in_camera)) else {
+                    continue;
+                };
+                Some(uv)
+            } else {
+                None
+            };
+            let pair = PointToPlane {
+                point_in_camera: obs.point_in_camera,
+            };
+            let l = pair.linearize(pose, &obs.surface_in_world, &obs.normal_in_world);
+            let before = normal.g;
+            let w = normal.add(
+                &l.d_pose,
+                &Vector1::new(l.error),
+                obs.inv_sigma2,
+                robust.then_some(&self.huber),
+            );
+            // The tilt's average cost out of the cost and the gradient; the Hessian
+            // keeps it, so that it stays positive (the tracker discounts it from the
+            // information on its own, `normal_noise_information`).
+            let tilt = l.offset_gradient * (w * obs.normal_tilt_variance);
+            if let (Some(tiles), Some(uv)) = (tiles.as_deref_mut(), uv) {
+                tiles.add(&uv, &(normal.g - before - tilt));
+            }
+            if obs.normal_tilt_variance > 0.0 {
+                normal.g -= tilt;
+            }
+        }
+    }
 }
 
 /// Point-to-plane distance of a depth observation at `pose`, metres.
@@ -80,24 +124,7 @@ impl Block for DepthBlock<'_> {
         robust: bool,
         normal: &mut Normal,
     ) {
-        for obs in flagged(self.observations, inliers) {
-            let pair = PointToPlane {
-                point_in_camera: obs.point_in_camera,
-            };
-            let l = pair.linearize(pose, &obs.surface_in_world, &obs.normal_in_world);
-            let w = normal.add(
-                &l.d_pose,
-                &Vector1::new(l.error),
-                obs.inv_sigma2,
-                robust.then_some(&self.huber),
-            );
-            // The tilt's average cost out of the cost and the gradient; the Hessian
-            // keeps it, so that it stays positive (the tracker discounts it from the
-            // information on its own, `normal_noise_information`).
-            if obs.normal_tilt_variance > 0.0 {
-                normal.g -= l.offset_gradient * (w * obs.normal_tilt_variance);
-            }
-        }
+        self.add_pairs(pose, inliers, robust, normal, None);
     }
 
     fn correlated_excess(
@@ -109,19 +136,7 @@ impl Block for DepthBlock<'_> {
     ) -> Matrix6<f64> {
         let mut tiles = TileScores::new(self.camera, tile_px, tile_scores);
         let mut own = Normal::zeros();
-        for obs in flagged(self.observations, inliers) {
-            let Some(uv) = self.camera.project(&Point3::from(obs.point_in_camera)) else {
-                continue;
-            };
-            let pair = PointToPlane {
-                point_in_camera: obs.point_in_camera,
-            };
-            let l = pair.linearize(pose, &obs.surface_in_world, &obs.normal_in_world);
-            let before = own.g;
-            let w = own.add(&l.d_pose, &Vector1::new(l.error), obs.inv_sigma2, None);
-            let tilt = l.offset_gradient * (w * obs.normal_tilt_variance);
-            tiles.add(&uv, &(own.g - before - tilt));
-        }
+        self.add_pairs(pose, inliers, false, &mut own, Some(&mut tiles));
         tiles.excess(&own.h)
     }
 
